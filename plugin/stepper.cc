@@ -1,0 +1,246 @@
+#include "stepper.h"
+
+#include <algorithm>
+#include <exception>
+#include <string>
+#include <variant>
+
+#include <fmt/format.h>
+#include <mujoco/mujoco.h>
+
+#include "config.h"
+#include "core/signals.h"
+
+namespace mjstepper::plugin {
+namespace {
+
+static_assert(sizeof(mjtNum) == sizeof(double), "DriveState is stored as mjtNum");
+
+std::string NameOf(const mjModel* m, int adr) { return adr >= 0 ? m->names + adr : ""; }
+
+// Who an error is about: "instance 'x'", "actuator 'shaft' (id 0)" or "sensor 'probe' (id 2)".
+std::string Subject(const mjModel* m, int instance) {
+  const std::string name = NameOf(m, m->name_pluginadr[instance]);
+  if (!name.empty()) return fmt::format("instance '{}'", name);
+  for (int a = 0; a < m->nactuator; ++a) {
+    if (m->actuator_plugin[a] == instance) {
+      return fmt::format("actuator '{}' (id {})", NameOf(m, m->name_actuatoradr[a]), a);
+    }
+  }
+  for (int s = 0; s < m->nsensor; ++s) {
+    if (m->sensor_plugin[s] == instance) {
+      return fmt::format("sensor '{}' (id {})", NameOf(m, m->name_sensoradr[s]), s);
+    }
+  }
+  return fmt::format("instance {}", instance);
+}
+
+std::vector<int> BoundActuators(const mjModel* m, int instance) {
+  std::vector<int> ids;
+  for (int a = 0; a < m->nactuator; ++a) {
+    if (m->actuator_plugin[a] == instance) ids.push_back(a);
+  }
+  return ids;
+}
+
+bool IsStepperInstance(const mjModel* m, int instance) {
+  int slot = -1;
+  return instance >= 0 && mjp_getPlugin(kPluginName, &slot) != nullptr && m->plugin[instance] == slot;
+}
+
+}  // namespace
+
+std::string VersionMismatch(int built_for, int running) {
+  if (built_for == running) return "";
+  auto dotted = [](int v) { return fmt::format("{}.{}.{}", v / 1000000, v / 1000 % 1000, v % 1000); };
+  return fmt::format(
+      "mjstepper: built for MuJoCo {} ({}) but running with libmujoco {} ({}); rebuild mjstepper "
+      "against the libmujoco it runs with (requirements.txt pins the version)",
+      dotted(built_for), built_for, dotted(running), running);
+}
+
+std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
+  if (const std::string mismatch = VersionMismatch(mjVERSION_HEADER, mj_version());
+      !mismatch.empty()) {
+    mju_warning("%s", mismatch.c_str());
+    return nullptr;
+  }
+  const std::string subject = Subject(m, instance);
+  auto fail = [&](const std::string& what) {
+    mju_warning("%s", fmt::format("mjstepper: {}: {}", subject, what).c_str());
+    return nullptr;
+  };
+  auto read = [m, instance](const char* name) { return mj_getPluginConfig(m, instance, name); };
+
+  std::unique_ptr<Stepper> stepper(new Stepper());
+  const std::vector<int> bound = BoundActuators(m, instance);
+  if (bound.empty()) {
+    // A signal probe: a sensor on an actuator driven by a stepper instance.
+    for (const char* name : AttributeNames()) {
+      const char* value = read(name);
+      if (value != nullptr && value[0] != '\0') {
+        return fail(fmt::format("{} = \"{}\": a signal sensor takes no config; configure the "
+                                "actuator's drive instead",
+                                name, value));
+      }
+    }
+    for (int s = 0; s < m->nsensor; ++s) {
+      if (m->sensor_plugin[s] != instance) continue;
+      const int a = m->sensor_objid[s];
+      if (m->sensor_objtype[s] != mjOBJ_ACTUATOR || a < 0 ||
+          !IsStepperInstance(m, m->actuator_plugin[a])) {
+        return fail("a mjstepper.stepper sensor needs objtype=\"actuator\" and objname naming an "
+                    "actuator driven by mjstepper.stepper");
+      }
+    }
+    return stepper;
+  }
+
+  const std::variant<DriveConfig, std::string> parsed = ParseConfig(read);
+  if (const std::string* error = std::get_if<std::string>(&parsed)) return fail(*error);
+  stepper->drive_.emplace(std::get<DriveConfig>(parsed));
+
+  for (int s = 0; s < m->nsensor; ++s) {
+    if (m->sensor_plugin[s] == instance) {
+      return fail("sensors read a drive through objtype=\"actuator\" objname=\"...\" and no "
+                  "instance; see plugin/README.md");
+    }
+  }
+  for (int a : bound) {
+    const std::string actuator = fmt::format("actuator '{}' (id {})",
+                                             NameOf(m, m->name_actuatoradr[a]), a);
+    const int joint = m->actuator_trnid[2 * a];
+    if (m->actuator_trntype[a] != mjTRN_JOINT || joint < 0 ||
+        (m->jnt_type[joint] != mjJNT_HINGE && m->jnt_type[joint] != mjJNT_SLIDE)) {
+      return fail(actuator + ": the stepper needs a joint transmission on a hinge or slide joint");
+    }
+    if (m->actuator_ctrlnum[a] != 1 || m->actuator_outnum[a] != 1) {
+      return fail(actuator + ": the stepper takes one control and drives one output");
+    }
+    stepper->actuators_.push_back({.id = a,
+                                   .ctrladr = m->actuator_ctrladr[a],
+                                   .outadr = m->actuator_outadr[a],
+                                   .qposadr = m->jnt_qposadr[joint],
+                                   .gear = m->actuator_gear[6 * m->actuator_outadr[a]]});
+  }
+  return stepper;
+}
+
+int Stepper::StateSize(const mjModel* m, int instance) {
+  return kDriveStateSize * static_cast<int>(BoundActuators(m, instance).size());
+}
+
+void Stepper::Reset(const mjModel* m, mjtNum* plugin_state, int instance) {
+  std::fill_n(plugin_state, m->plugin_statenum[instance], 0.0);
+}
+
+double Stepper::Command(const mjModel* m, const mjData* d, const Actuator& a) const {
+  double ctrl = d->ctrl[a.ctrladr];  // plugins get ctrl raw: clamp it as MuJoCo would
+  if (m->actuator_ctrllimited[a.ctrladr]) {
+    ctrl = std::clamp(ctrl, m->actuator_ctrlrange[2 * a.ctrladr],
+                      m->actuator_ctrlrange[2 * a.ctrladr + 1]);
+  }
+  return ctrl;
+}
+
+mjtNum* Stepper::Slot(const mjModel* m, const mjData* d, int instance, int slot) const {
+  return d->plugin_state + m->plugin_stateadr[instance] + slot * kDriveStateSize;
+}
+
+DriveState Stepper::CurrentState(const mjModel* m, const mjData* d, int instance,
+                                 int slot) const {
+  DriveState state = LoadState(Slot(m, d, instance, slot));
+  if (!state.started) {
+    const Actuator& a = actuators_[slot];
+    state = drive_->Rest(d->time, d->actuator_length[a.outadr], Command(m, d, a));
+  }
+  return state;
+}
+
+void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability) const {
+  if (capability == mjPLUGIN_SENSOR) {
+    ComputeProbe(m, d, instance);
+    return;
+  }
+  if (!drive_) return;
+  for (size_t slot = 0; slot < actuators_.size(); ++slot) {
+    const Actuator& a = actuators_[slot];
+    const DriveState state = CurrentState(m, d, instance, slot);
+    // Torque from the currents at the step's start (as MuJoCo's dcmotor without actearly).
+    d->actuator_force[a.outadr] = drive_->Torque(state, d->actuator_length[a.outadr]);
+  }
+}
+
+void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
+  if (!drive_) return;
+  const double t1 = d->time;  // s, the step's end: MuJoCo advances time before plugins
+  const double t0 = t1 - m->opt.timestep;
+  for (size_t slot = 0; slot < actuators_.size(); ++slot) {
+    const Actuator& a = actuators_[slot];
+    DriveState state = LoadState(Slot(m, d, instance, slot));
+    const double command = Command(m, d, a);
+    if (!state.started) {
+      // actuator_length still holds the step's start value here (Euler, implicitfast).
+      state = drive_->Rest(t0, d->actuator_length[a.outadr], command);
+    }
+    const double theta1 = a.gear * d->qpos[a.qposadr];  // rad, rotor side, at t1
+    drive_->Advance(&state, t0, t1, theta1, command);
+    StoreState(state, Slot(m, d, instance, slot));
+  }
+}
+
+void Stepper::ComputeProbe(const mjModel* m, mjData* d, int instance) const {
+  for (int s = 0; s < m->nsensor; ++s) {
+    if (m->sensor_plugin[s] != instance) continue;
+    const int a = m->sensor_objid[s];
+    const int owner = m->actuator_plugin[a];
+    const Stepper& drive = FromData(d, owner);
+    const auto it = std::find_if(drive.actuators_.begin(), drive.actuators_.end(),
+                                 [a](const Actuator& x) { return x.id == a; });
+    const int slot = static_cast<int>(it - drive.actuators_.begin());
+    const DriveState state = drive.CurrentState(m, d, owner, slot);
+    const DriveSignals signals = drive.drive_->Signals(state, d->actuator_length[it->outadr]);
+    const std::array<double, kNumSignals> values = SignalValues(signals, state);
+    std::copy(values.begin(), values.end(), d->sensordata + m->sensor_adr[s]);
+  }
+}
+
+void RegisterStepperPlugin() {
+  static const std::vector<const char*>& attributes = AttributeNames();
+  mjpPlugin plugin;
+  mjp_defaultPlugin(&plugin);
+  plugin.name = kPluginName;
+  plugin.capabilityflags = mjPLUGIN_ACTUATOR | mjPLUGIN_SENSOR;
+  plugin.needstage = mjSTAGE_ACC;  // signals include this step's torques
+  plugin.nattribute = static_cast<int>(attributes.size());
+  plugin.attributes = attributes.data();
+  plugin.nstate = +[](const mjModel* m, int instance) { return Stepper::StateSize(m, instance); };
+  plugin.nsensordata = +[](const mjModel*, int, int) { return static_cast<int>(kNumSignals); };
+  plugin.init = +[](const mjModel* m, mjData* d, int instance) {
+    std::unique_ptr<Stepper> stepper;
+    try {
+      stepper = Stepper::Create(m, instance);
+    } catch (const std::exception& e) {  // no exception crosses into MuJoCo
+      mju_warning("mjstepper: %s", e.what());
+    }
+    if (!stepper) return -1;
+    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(stepper.release());
+    return 0;
+  };
+  plugin.destroy = +[](mjData* d, int instance) {
+    delete reinterpret_cast<Stepper*>(d->plugin_data[instance]);
+    d->plugin_data[instance] = 0;
+  };
+  plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void*, int instance) {
+    Stepper::Reset(m, plugin_state, instance);
+  };
+  plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability) {
+    Stepper::FromData(d, instance).Compute(m, d, instance, capability);
+  };
+  plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
+    Stepper::FromData(d, instance).Advance(m, d, instance);
+  };
+  mjp_registerPlugin(&plugin);
+}
+
+}  // namespace mjstepper::plugin

@@ -1,0 +1,77 @@
+// The mjstepper.stepper plugin: the adapter between MuJoCo's plugin API and the core drive.
+//
+// Two kinds of instance share the plugin name:
+//   - a drive instance, bound to one or more <actuator><plugin> elements (an implicit instance with
+//     its own <config>, or a named <instance> shared by several actuators): actuator capability;
+//   - a signal probe, a <sensor><plugin objtype="actuator" objname="..."> with no config: sensor
+//     capability, reading the signals of the drive on that actuator.
+// State: kDriveStateSize mjtNums per bound actuator in plugin_state; plugin_data holds only the
+// parsed configuration and the actuators' addresses (constant after init).
+#ifndef MJSTEPPER_PLUGIN_STEPPER_H_
+#define MJSTEPPER_PLUGIN_STEPPER_H_
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "core/drive.h"
+
+namespace mjstepper::plugin {
+
+inline constexpr char kPluginName[] = "mjstepper.stepper";
+
+/// "" when the headers and the library agree, else a message naming both versions.
+std::string VersionMismatch(int built_for, int running);
+
+class Stepper {
+ public:
+  /// Parses and checks the instance; on error warns (naming attribute and value) and returns null.
+  static std::unique_ptr<Stepper> Create(const mjModel* m, int instance);
+
+  /// mjtNums of plugin_state for the instance: kDriveStateSize per bound actuator.
+  static int StateSize(const mjModel* m, int instance);
+
+  /// Writes the "not started" state (all zero); the drive starts at rest on first use (SPEC §6).
+  static void Reset(const mjModel* m, mjtNum* plugin_state, int instance);
+
+  static Stepper& FromData(const mjData* d, int instance) {
+    return *reinterpret_cast<Stepper*>(d->plugin_data[instance]);
+  }
+
+  /// Called several times per step (RK4 stages, finite differences, mj_forward): pure in mjData.
+  /// Actuator capability: writes actuator_force from the state's currents at the step's start.
+  /// Sensor capability: writes the probe sensors' signals.
+  void Compute(const mjModel* m, mjData* d, int instance, int capability) const;
+
+  /// Called once per step after integration (time already t + h): moves each drive from t to t+h.
+  void Advance(const mjModel* m, mjData* d, int instance) const;
+
+ private:
+  struct Actuator {
+    int id = -1;
+    int ctrladr = 0;
+    int outadr = 0;
+    int qposadr = 0;
+    double gear = 1;
+  };
+
+  Stepper() = default;
+  double Command(const mjModel* m, const mjData* d, const Actuator& a) const;
+  mjtNum* Slot(const mjModel* m, const mjData* d, int instance, int slot) const;
+  // The state of slot, or the rest state it starts in when it has not started.
+  DriveState CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const;
+  void ComputeProbe(const mjModel* m, mjData* d, int instance) const;
+
+  std::optional<Drive> drive_;        // empty for a probe
+  std::vector<Actuator> actuators_;   // bound actuators, in id order
+};
+
+/// Registers the plugin with MuJoCo (idempotent).
+void RegisterStepperPlugin();
+
+}  // namespace mjstepper::plugin
+
+#endif  // MJSTEPPER_PLUGIN_STEPPER_H_

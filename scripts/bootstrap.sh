@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs what mjstepper needs and is missing; does nothing when everything is there.
+#   Debian packages (only when root): compiler, CMake, Ninja, Eigen, GoogleTest, Google Benchmark,
+#   CLI11, fmt, OSMesa, ffmpeg.
+#   A project-local virtual environment .venv with requirements.txt (the pinned mujoco wheel).
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+
+# Why each package is here: see README.md, "Dependencies".
+packages=(g++ cmake ninja-build pkg-config python3-venv libeigen3-dev libgtest-dev libgmock-dev
+          libbenchmark-dev libcli11-dev libfmt-dev libosmesa6-dev ffmpeg)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  if [[ $(id -u) -eq 0 ]]; then
+    echo "bootstrap: installing Debian packages: ${missing[*]}"
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  else
+    echo "bootstrap: missing Debian packages (run as root to install): ${missing[*]}" >&2
+    exit 1
+  fi
+fi
+
+venv="$here/.venv"
+pin=$(grep -E '^mujoco==' "$here/requirements.txt" | cut -d= -f3)
+have=$("$venv/bin/python" -c 'import mujoco; print(mujoco.__version__)' 2>/dev/null || true)
+if [[ "$have" != "$pin" ]]; then
+  echo "bootstrap: creating $venv with mujoco==$pin"
+  python3 -m venv "$venv"
+  "$venv/bin/python" -m pip install -q -r "$here/requirements.txt"
+fi

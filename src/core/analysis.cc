@@ -1,0 +1,67 @@
+#include "core/analysis.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include <Eigen/Dense>
+
+#include "core/units.h"
+
+namespace mjstepper {
+
+double Mean(std::span<const double> x) {
+  return x.empty() ? 0.0 : std::accumulate(x.begin(), x.end(), 0.0) / x.size();
+}
+
+double Rms(std::span<const double> x) {
+  if (x.empty()) return 0.0;
+  double sum = 0;
+  for (double v : x) sum += v * v;
+  return std::sqrt(sum / x.size());
+}
+
+double PeakToPeak(std::span<const double> x) {
+  if (x.empty()) return 0.0;
+  const auto [lo, hi] = std::minmax_element(x.begin(), x.end());
+  return *hi - *lo;
+}
+
+Tone FitTone(std::span<const double> t, std::span<const double> x, double frequency) {
+  // x ≈ c0 + c1·cos(wt) + c2·sin(wt), normal equations.
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  const double w = kTwoPi * frequency;
+  for (size_t k = 0; k < t.size(); ++k) {
+    const Eigen::Vector3d row(1.0, std::cos(w * t[k]), std::sin(w * t[k]));
+    a += row * row.transpose();
+    b += row * x[k];
+  }
+  const Eigen::Vector3d c = a.ldlt().solve(b);
+  // c1·cos + c2·sin = A·cos(wt + φ) with A·cos φ = c1, −A·sin φ = c2.
+  return {.amplitude = std::hypot(c[1], c[2]), .phase = std::atan2(-c[2], c[1]), .offset = c[0]};
+}
+
+double CrossingFrequency(std::span<const double> t, std::span<const double> x) {
+  const double mean = Mean(x);
+  std::vector<double> crossings;
+  for (size_t k = 1; k < x.size(); ++k) {
+    const double a = x[k - 1] - mean, b = x[k] - mean;
+    if (a < 0 && b >= 0) crossings.push_back(t[k - 1] + (t[k] - t[k - 1]) * (-a) / (b - a));
+  }
+  if (crossings.size() < 2) return 0.0;
+  return (crossings.size() - 1) / (crossings.back() - crossings.front());
+}
+
+double DampingRatioFromPeaks(std::span<const double> x) {
+  const double mean = Mean(x);
+  std::vector<double> peaks;
+  for (size_t k = 1; k + 1 < x.size(); ++k) {
+    if (x[k] - mean > 0 && x[k] >= x[k - 1] && x[k] > x[k + 1]) peaks.push_back(x[k] - mean);
+  }
+  if (peaks.size() < 2) return 0.0;
+  const double d = std::log(peaks.front() / peaks.back()) / (peaks.size() - 1);
+  return d / std::sqrt(kTwoPi * kTwoPi + d * d);
+}
+
+}  // namespace mjstepper

@@ -1,0 +1,160 @@
+#include "core/command_profile.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "core/units.h"
+
+namespace mjstepper {
+namespace {
+
+enum class Dim { kSpeed, kAngle, kTime };
+
+struct Quantity {
+  double value = 0;  // SI
+  Dim dim = Dim::kSpeed;
+};
+
+std::string Trim(std::string_view s) {
+  const size_t b = s.find_first_not_of(" \t");
+  if (b == std::string_view::npos) return "";
+  const size_t e = s.find_last_not_of(" \t");
+  return std::string(s.substr(b, e - b + 1));
+}
+
+Quantity ParseQuantity(const std::string& text, std::string_view whole) {
+  const std::string t = Trim(text);
+  double v = 0;
+  const char* begin = t.data() + (!t.empty() && t[0] == '+' ? 1 : 0);
+  const auto [ptr, ec] = std::from_chars(begin, t.data() + t.size(), v);
+  if (ec != std::errc() || !std::isfinite(v)) {
+    throw std::invalid_argument(fmt::format("profile \"{}\": \"{}\" is not a number with a unit",
+                                            whole, t));
+  }
+  const std::string unit = Trim(std::string_view(ptr, t.data() + t.size() - ptr));
+  if (unit == "rpm" || unit == "r/min") return {RpmToRadPerSec(v), Dim::kSpeed};
+  if (unit == "rad/s") return {v, Dim::kSpeed};
+  if (unit == "rad") return {v, Dim::kAngle};
+  if (unit == "deg") return {v * kTwoPi / 360.0, Dim::kAngle};
+  if (unit == "s") return {v, Dim::kTime};
+  if (unit == "ms") return {v * 1e-3, Dim::kTime};
+  throw std::invalid_argument(fmt::format(
+      "profile \"{}\": \"{}\" needs a unit: rpm, r/min, rad/s, rad, deg, s or ms", whole, t));
+}
+
+}  // namespace
+
+CommandProfile CommandProfile::Parse(std::string_view text) {
+  const std::string whole(text);
+  const size_t open = whole.find('(');
+  const size_t close = whole.rfind(')');
+  if (open == std::string::npos || close == std::string::npos || close < open ||
+      !Trim(whole.substr(close + 1)).empty()) {
+    throw std::invalid_argument(fmt::format(
+        "profile \"{}\": expected constant(…), ramp(…, …, …) or trapezoid(…, …, …, …)", whole));
+  }
+  const std::string name = Trim(whole.substr(0, open));
+  std::vector<Quantity> args;
+  std::string inner = whole.substr(open + 1, close - open - 1);
+  size_t start = 0;
+  while (true) {
+    const size_t comma = inner.find(',', start);
+    args.push_back(ParseQuantity(inner.substr(start, comma - start), whole));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  auto bad = [&](const char* expected) {
+    return std::invalid_argument(fmt::format("profile \"{}\": expected {}", whole, expected));
+  };
+  CommandProfile p;
+  p.text_ = whole;
+  if (name == "constant") {
+    if (args.size() != 1 || args[0].dim == Dim::kTime) throw bad("constant(speed) or constant(angle)");
+    p.kind_ = args[0].dim == Dim::kSpeed ? Kind::kConstantSpeed : Kind::kAngleHold;
+    p.a_ = args[0].value;
+  } else if (name == "ramp") {
+    if (args.size() != 3 || args[0].dim != args[1].dim || args[0].dim == Dim::kTime ||
+        args[2].dim != Dim::kTime || !(args[2].value > 0)) {
+      throw bad("ramp(from, to, duration > 0), from and to both speeds or both angles");
+    }
+    p.kind_ = args[0].dim == Dim::kSpeed ? Kind::kSpeedRamp : Kind::kAngleRamp;
+    p.a_ = args[0].value;
+    p.b_ = args[1].value;
+    p.t1_ = args[2].value;
+  } else if (name == "trapezoid") {
+    if (args.size() != 4 || args[0].dim != Dim::kSpeed || args[1].dim != Dim::kTime ||
+        args[2].dim != Dim::kTime || args[3].dim != Dim::kTime || !(args[1].value >= 0) ||
+        !(args[2].value >= 0) || !(args[3].value >= 0)) {
+      throw bad("trapezoid(peak speed, accel time, cruise time, decel time), times >= 0");
+    }
+    p.kind_ = Kind::kTrapezoid;
+    p.a_ = args[0].value;
+    p.t1_ = args[1].value;
+    p.t2_ = args[2].value;
+    p.t3_ = args[3].value;
+  } else {
+    throw bad("constant(…), ramp(…, …, …) or trapezoid(…, …, …, …)");
+  }
+  return p;
+}
+
+double CommandProfile::Speed(double t) const {
+  switch (kind_) {
+    case Kind::kConstantSpeed:
+      return a_;
+    case Kind::kAngleHold:
+      return 0.0;
+    case Kind::kSpeedRamp:
+      return t <= 0 ? a_ : t >= t1_ ? b_ : a_ + (b_ - a_) * t / t1_;
+    case Kind::kAngleRamp:
+      return t >= 0 && t < t1_ ? (b_ - a_) / t1_ : 0.0;
+    case Kind::kTrapezoid: {
+      if (t <= 0) return 0.0;
+      if (t < t1_) return a_ * t / t1_;
+      if (t < t1_ + t2_) return a_;
+      if (t < t1_ + t2_ + t3_) return a_ * (t1_ + t2_ + t3_ - t) / t3_;
+      return 0.0;
+    }
+  }
+  return 0.0;
+}
+
+double CommandProfile::Angle(double t) const {
+  switch (kind_) {
+    case Kind::kConstantSpeed:
+      return a_ * t;
+    case Kind::kAngleHold:
+      return a_;
+    case Kind::kSpeedRamp: {
+      if (t <= 0) return a_ * t;
+      const double tr = std::min(t, t1_);
+      return a_ * tr + 0.5 * (b_ - a_) * tr * tr / t1_ + b_ * (t - tr);
+    }
+    case Kind::kAngleRamp:
+      return a_ + (b_ - a_) * std::clamp(t / t1_, 0.0, 1.0);
+    case Kind::kTrapezoid: {
+      if (t <= 0) return 0.0;
+      const double ta = std::min(t, t1_);
+      double angle = 0.5 * a_ * ta * ta / std::max(t1_, 1e-300);
+      if (t <= t1_) return angle;
+      angle += a_ * (std::min(t, t1_ + t2_) - t1_);
+      if (t <= t1_ + t2_) return angle;
+      const double td = std::min(t, t1_ + t2_ + t3_) - (t1_ + t2_);
+      return angle + a_ * td - 0.5 * a_ * td * td / std::max(t3_, 1e-300);
+    }
+  }
+  return 0.0;
+}
+
+double CommandProfile::ControlForStep(double t, double h, InputMode input,
+                                      double theta_start) const {
+  if (input == InputMode::kVelocity) return (Angle(t + h) - Angle(t)) / h;
+  return (absolute_angle() ? 0.0 : theta_start) + Angle(t + 0.5 * h);
+}
+
+}  // namespace mjstepper

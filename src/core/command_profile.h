@@ -1,0 +1,47 @@
+// Command profiles for a stepper: what θcmd or ωcmd does over time.
+//   constant(100rpm)                 constant speed (rpm, r/min, rad/s)
+//   constant(0.5rad)                 hold an angle (rad, deg)
+//   ramp(0rpm, 200rpm, 0.8s)         speed ramp, then hold the final speed
+//   ramp(0rad, 3.1416rad, 1s)        angle ramp (constant speed), then hold the final angle
+//   trapezoid(200rpm, 0.2s, 0.5s, 0.2s)  0 → peak in Ta, cruise Tc, → 0 in Td, then rest
+#ifndef MJSTEPPER_CORE_COMMAND_PROFILE_H_
+#define MJSTEPPER_CORE_COMMAND_PROFILE_H_
+
+#include <string>
+#include <string_view>
+
+#include "core/drive.h"
+
+namespace mjstepper {
+
+class CommandProfile {
+ public:
+  /// Throws std::invalid_argument quoting the text and saying what is expected.
+  static CommandProfile Parse(std::string_view text);
+
+  /// Commanded speed at t, rad/s.
+  double Speed(double t) const;
+  /// Commanded angle at t, rad: absolute for angle profiles, relative to t = 0 for speed profiles.
+  double Angle(double t) const;
+  /// True for angle profiles (constant(…rad), ramp(…rad, …rad, T)).
+  bool absolute_angle() const { return kind_ == Kind::kAngleHold || kind_ == Kind::kAngleRamp; }
+
+  /// The control for the simulation step [t, t + h]: the mean speed over the step (velocity input,
+  /// so that the drive's integrated θcmd matches Angle at step ends), or the angle at mid-step
+  /// (position input, centring the held staircase on the profile). `theta_start` is added to
+  /// speed profiles' angles.
+  double ControlForStep(double t, double h, InputMode input, double theta_start) const;
+
+  const std::string& text() const { return text_; }
+
+ private:
+  enum class Kind { kConstantSpeed, kAngleHold, kSpeedRamp, kAngleRamp, kTrapezoid };
+  Kind kind_ = Kind::kConstantSpeed;
+  double a_ = 0, b_ = 0;       // speeds (rad/s) or angles (rad)
+  double t1_ = 0, t2_ = 0, t3_ = 0;  // s
+  std::string text_;
+};
+
+}  // namespace mjstepper
+
+#endif  // MJSTEPPER_CORE_COMMAND_PROFILE_H_

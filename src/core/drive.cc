@@ -1,0 +1,230 @@
+#include "core/drive.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "core/motor.h"
+#include "core/units.h"
+#include "core/winding.h"
+
+namespace mjstepper {
+namespace {
+
+void Require(bool ok, const char* name, double value, const char* rule) {
+  if (!ok) throw std::invalid_argument(fmt::format("DriveConfig: {} = {}; {}", name, value, rule));
+}
+
+}  // namespace
+
+DriveState LoadState(const double* values) {
+  DriveState state;
+  std::memcpy(static_cast<void*>(&state), values, sizeof(state));  // trivially copyable
+  return state;
+}
+
+void StoreState(const DriveState& state, double* values) {
+  std::memcpy(values, static_cast<const void*>(&state), sizeof(state));
+}
+
+void Validate(const DriveConfig& c) {
+  Validate(c.motor);
+  // Each check is written so that NaN fails it.
+  Require(c.bus_voltage > 0 && std::isfinite(c.bus_voltage), "bus_voltage", c.bus_voltage,
+          "must be finite and > 0 (V)");
+  Require(c.voltage_amplitude > 0 && c.voltage_amplitude <= c.bus_voltage, "voltage_amplitude",
+          c.voltage_amplitude, "must be > 0 and <= bus_voltage (V)");
+  Require(c.hold_current > 0 && std::isfinite(c.hold_current), "hold_current", c.hold_current,
+          "must be finite and > 0 (A)");
+  Require(c.kp >= 0 && std::isfinite(c.kp), "kp", c.kp, "must be finite and >= 0 (V/A)");
+  Require(c.ki_per_tick >= 0 && std::isfinite(c.ki_per_tick), "ki", c.ki_per_tick,
+          "must be finite and >= 0 (V/A per tick)");
+  Require(c.isr_period > 0 && std::isfinite(c.isr_period), "isr_period", c.isr_period,
+          "must be finite and > 0 (s)");
+  Require(c.compute_delay >= 0 && c.compute_delay < c.isr_period, "compute_delay",
+          c.compute_delay, "must be >= 0 and < isr_period (s)");
+  Require(c.rk4_step > 0, "rk4_step", c.rk4_step, "must be > 0 (s)");
+}
+
+Drive::Drive(DriveConfig config) : config_(std::move(config)) {
+  Validate(config_);
+  bridges_ = {.bus_voltage = config_.bus_voltage};
+  voltage_controller_ = {.rotor_teeth = config_.motor.rotor_teeth,
+                         .voltage_amplitude = config_.voltage_amplitude};
+  current_controller_ = {.rotor_teeth = config_.motor.rotor_teeth,
+                         .hold_current = config_.hold_current,
+                         .kp = config_.kp,
+                         .ki_per_tick = config_.ki_per_tick};
+}
+
+PhaseVector Drive::IdealCurrent(double theta_cmd) const {
+  return current_controller_.RestCurrent(theta_cmd);
+}
+
+DriveState Drive::Rest(double time, double theta, double command) const {
+  DriveState s;
+  s.started = 1;
+  s.theta = theta;
+  s.theta_cmd = config_.input == InputMode::kPosition ? command : theta;
+  PhaseVector current;
+  switch (config_.kind) {
+    case DriveKind::kVoltageMicrostep:
+      current = voltage_controller_.RestCurrent(s.theta_cmd, config_.motor.resistance);
+      break;
+    case DriveKind::kCurrentMicrostep:
+    case DriveKind::kIdealCurrent: {
+      current = current_controller_.RestCurrent(s.theta_cmd);
+      const PhaseVector integral = current_controller_.RestIntegral(config_.motor.resistance);
+      s.integral_d = integral.real();
+      s.integral_q = integral.imag();
+      break;
+    }
+  }
+  // At rest v = R·i holds the current constant (S-3 with ω = 0).
+  const PhaseVector voltage = config_.motor.resistance * current;
+  s.current_a = current.real();
+  s.current_b = current.imag();
+  s.voltage_a = s.pending_a = voltage.real();
+  s.voltage_b = s.pending_b = voltage.imag();
+  s.next_tick = std::ceil(time / config_.isr_period);
+  return s;
+}
+
+void Drive::Tick(DriveState* s, const ControlSample& sample) const {
+  BridgeOutput out;
+  switch (config_.kind) {
+    case DriveKind::kVoltageMicrostep:
+      out = voltage_controller_.Update(sample, bridges_);
+      break;
+    case DriveKind::kCurrentMicrostep:
+    case DriveKind::kIdealCurrent: {
+      PhaseVector integral(s->integral_d, s->integral_q);
+      out = current_controller_.Update(sample, bridges_, &integral);
+      s->integral_d = integral.real();
+      s->integral_q = integral.imag();
+      break;
+    }
+  }
+  s->pending_a = out.voltage.real();
+  s->pending_b = out.voltage.imag();
+  s->pending = 1;
+}
+
+void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double command) const {
+  const MotorParams& motor = config_.motor;
+  const double h = t1 - t0;                            // s
+  const double theta0 = s->theta;                      // rad
+  const double omega = h > 0 ? (theta1 - theta0) / h : 0.0;  // rad/s, constant over the step
+  const double theta_cmd0 = s->theta_cmd;
+  const double omega_cmd =
+      config_.input == InputMode::kVelocity ? command : (h > 0 ? (command - theta_cmd0) / h : 0.0);
+  auto theta_at = [&](double t) { return theta0 + omega * (t - t0); };
+  auto theta_cmd_at = [&](double t) {
+    return config_.input == InputMode::kVelocity ? theta_cmd0 + command * (t - t0) : command;
+  };
+
+  if (config_.kind == DriveKind::kIdealCurrent) {
+    const PhaseVector i = IdealCurrent(theta_cmd_at(t1));
+    s->current_a = i.real();
+    s->current_b = i.imag();
+  } else {
+    const double period = config_.isr_period;  // T
+    // Events closer than this to a step's end are taken in that step: tick times k·T and the
+    // accumulated simulation time differ by round-off only.
+    const double eps = 1e-9 * period;
+    if (s->next_tick * period < t0 - eps) {  // time was moved back or jumped: resynchronise
+      s->next_tick = std::ceil((t0 - eps) / period);
+      s->pending = 0;
+    }
+    PhaseVector current = s->current();
+    PhaseVector voltage = s->voltage();
+    double t = t0;
+    auto integrate_to = [&](double t_end) {
+      if (t_end <= t) return;
+      if (config_.solver == WindingSolver::kExact) {
+        const WindingInterval piece(motor, current, voltage, theta_at(t), omega);
+        const IntervalEnergy e = piece.Energy(t_end - t);
+        s->energy_input += e.input;
+        s->energy_copper += e.copper;
+        s->energy_mechanical += e.mechanical;
+        current = piece.CurrentAt(t_end - t);
+      } else {
+        current = IntegrateWindingRk4(motor, current, voltage, theta_at(t), omega, t_end - t,
+                                      config_.rk4_step);
+      }
+      t = t_end;
+    };
+    constexpr double kNever = std::numeric_limits<double>::infinity();
+    while (true) {
+      const double t_apply =
+          s->pending ? (s->next_tick - 1) * period + config_.compute_delay : kNever;
+      const double t_tick = s->next_tick * period;
+      const double t_event = std::min(t_apply, t_tick);
+      if (t_event > t1 + eps) {
+        integrate_to(t1);
+        break;
+      }
+      integrate_to(std::min(t_event, t1));
+      if (t_apply <= t_tick) {  // S-15: v[k−1] reaches the phases at t_{k−1} + D, then is held
+        voltage = {s->pending_a, s->pending_b};
+        s->pending = 0;
+      } else {  // interrupt k: sample, compute v[k]
+        const ControlSample sample{.theta_cmd = theta_cmd_at(t),
+                                   .omega_cmd = omega_cmd,
+                                   .current = current,
+                                   .theta = theta_at(t),
+                                   .omega = omega};
+        Tick(s, sample);
+        s->next_tick += 1;
+      }
+    }
+    s->current_a = current.real();
+    s->current_b = current.imag();
+    s->voltage_a = voltage.real();
+    s->voltage_b = voltage.imag();
+  }
+  s->theta = theta1;
+  s->theta_cmd = theta_cmd_at(t1);
+  s->omega_cmd = omega_cmd;
+}
+
+double Drive::Torque(const DriveState& s, double theta) const {
+  return ElectromagneticTorque(config_.motor, theta, s.current()) +
+         DetentTorque(config_.motor, theta);
+}
+
+DriveSignals Drive::Signals(const DriveState& s, double theta) const {
+  const MotorParams& motor = config_.motor;
+  DriveSignals out;
+  out.current_a = s.current_a;
+  out.current_b = s.current_b;
+  out.voltage_a = s.voltage_a;
+  out.voltage_b = s.voltage_b;
+  const PhaseVector dq = ToDq(s.current(), motor.rotor_teeth * s.theta_cmd);  // S-9, ψ = Nr·θcmd
+  out.current_d = dq.real();
+  out.current_q = dq.imag();
+  out.theta_cmd = s.theta_cmd;
+  out.omega_cmd = s.omega_cmd;
+  out.torque_em = ElectromagneticTorque(motor, theta, s.current());
+  out.torque_detent = DetentTorque(motor, theta);
+  out.torque_total = out.torque_em + out.torque_detent;
+  out.load_angle = motor.rotor_teeth * (s.theta_cmd - theta);  // S-12
+  out.lost_steps = 4.0 * std::round(out.load_angle / kTwoPi);
+  return out;
+}
+
+double Drive::RestCurrentMagnitude() const {
+  return config_.kind == DriveKind::kVoltageMicrostep
+             ? config_.voltage_amplitude / config_.motor.resistance
+             : config_.hold_current;
+}
+
+double Drive::HoldingStiffness() const {
+  return config_.motor.rotor_teeth * config_.motor.torque_constant * RestCurrentMagnitude();
+}
+
+}  // namespace mjstepper

@@ -1,0 +1,52 @@
+// Winding integration over one interval with the phase voltage held (zero-order hold, S-15) while
+// the rotor turns at constant speed: S-3 in phase-vector form,
+//   L·di/dt + R·i = v − j·Km·ω·e^{jx(t)},   x(t) = Nr·(θ0 + ω·t).
+// Its exact solution, for any interval length (no step-size limit, no stiffness problem):
+//   i(t) = v/R + P·e^{jx(t)} + (i0 − v/R − P·e^{jx0})·e^{−R·t/L},   P = −j·Km·ω / (R + j·Nr·ω·L).
+// The first two terms are the steady-state response to the held voltage and to the back-EMF of a
+// rotor turning at ω; the third is the electrical transient, decaying at R/L.
+#ifndef MJSTEPPER_CORE_WINDING_H_
+#define MJSTEPPER_CORE_WINDING_H_
+
+#include "core/motor.h"
+
+namespace mjstepper {
+
+/// Energies over one interval, J. Input va·ia + vb·ib, copper R·|i|², mechanical τm·ω (S-8).
+struct IntervalEnergy {
+  double input = 0;
+  double copper = 0;
+  double mechanical = 0;
+};
+
+/// One interval of S-3 with v held and θ moving linearly from θ0 at speed ω.
+class WindingInterval {
+ public:
+  WindingInterval(const MotorParams& p, PhaseVector current0, PhaseVector voltage, double theta0,
+                  double omega);
+
+  /// Phase currents at time t after the interval's start (A); exact for any t >= 0.
+  PhaseVector CurrentAt(double t) const;
+
+  /// Energies over [0, h] by Simpson's rule on the exact solution. Every term is smooth on the
+  /// interval, so the error is O(h⁵·max(R/L, Nr·ω)⁴): below 1e-9 relative for h = 50 µs on the
+  /// presets at 1200 r/min.
+  IntervalEnergy Energy(double h) const;
+
+ private:
+  const MotorParams& p_;
+  PhaseVector voltage_;   // V
+  double theta0_;         // rad
+  double omega_;          // rad/s
+  PhaseVector steady_;    // v/R, A
+  PhaseVector emf_gain_;  // P, A
+  PhaseVector transient_; // i0 − v/R − P·e^{jx0}, A
+};
+
+/// Reference solver for tests: classical RK4 on S-3 with steps of at most max_step.
+PhaseVector IntegrateWindingRk4(const MotorParams& p, PhaseVector current0, PhaseVector voltage,
+                                double theta0, double omega, double h, double max_step);
+
+}  // namespace mjstepper
+
+#endif  // MJSTEPPER_CORE_WINDING_H_

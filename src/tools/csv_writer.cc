@@ -1,0 +1,54 @@
+#include "csv_writer.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <iterator>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace mjstepper::tools {
+
+CsvWriter::CsvWriter(std::string path, const std::vector<std::string>& header)
+    : path_(std::move(path)), tmp_path_(path_ + ".tmp") {
+  const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
+  if (!parent.empty()) std::filesystem::create_directories(parent);
+  file_ = std::fopen(tmp_path_.c_str(), "w");
+  if (file_ == nullptr) throw std::runtime_error(fmt::format("cannot write {}", tmp_path_));
+  for (size_t i = 0; i < header.size(); ++i) {
+    buffer_ += header[i];
+    buffer_ += i + 1 < header.size() ? ',' : '\n';
+  }
+}
+
+CsvWriter::~CsvWriter() {
+  if (file_ != nullptr) {
+    std::fclose(file_);
+    std::remove(tmp_path_.c_str());
+  }
+}
+
+void CsvWriter::Row(std::span<const double> values) {
+  for (size_t i = 0; i < values.size(); ++i) {
+    fmt::format_to(std::back_inserter(buffer_), "{:.10g}{}", values[i],
+                   i + 1 < values.size() ? ',' : '\n');
+  }
+  if (buffer_.size() > (1 << 20)) {
+    std::fwrite(buffer_.data(), 1, buffer_.size(), file_);
+    buffer_.clear();
+  }
+}
+
+void CsvWriter::Commit() {
+  const bool wrote = std::fwrite(buffer_.data(), 1, buffer_.size(), file_) == buffer_.size();
+  buffer_.clear();
+  const bool closed = std::fclose(file_) == 0;
+  file_ = nullptr;
+  if (!wrote || !closed) {
+    std::remove(tmp_path_.c_str());
+    throw std::runtime_error(fmt::format("error writing {}", tmp_path_));
+  }
+  std::filesystem::rename(tmp_path_, path_);
+}
+
+}  // namespace mjstepper::tools

@@ -1,0 +1,138 @@
+#include "runner.h"
+
+#include <chrono>
+#include <cmath>
+#include <optional>
+#include <ostream>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <fmt/ostream.h>
+
+#include "core/command_profile.h"
+#include "core/signals.h"
+#include "core/units.h"
+#include "csv_writer.h"
+#include "stepper_model.h"
+
+namespace mjstepper::tools {
+
+RunResult Run(const RunOptions& options, std::ostream& progress) {
+  if (!(options.duration > 0)) {
+    throw std::invalid_argument(fmt::format("--duration = {}: must be > 0 (s)", options.duration));
+  }
+  if (options.log_every < 1) {
+    throw std::invalid_argument(fmt::format("--log-every = {}: must be >= 1", options.log_every));
+  }
+  StepperModel sm = LoadStepperModel(options.model);
+  const mjModel* m = sm.model.get();
+  DataPtr data(mj_makeData(m));
+  mjData* d = data.get();
+  mj_forward(m, d);
+
+  // One profile per stepper: the user's, or hold still (speed 0 / the start angle).
+  std::vector<CommandProfile> profiles;
+  std::vector<double> theta_start;
+  for (const StepperActuator& s : sm.steppers) {
+    const auto it = options.ctrl.find(s.name);
+    profiles.push_back(CommandProfile::Parse(it != options.ctrl.end() ? it->second
+                                                                      : "constant(0rad/s)"));
+    theta_start.push_back(d->actuator_length[s.outadr]);
+  }
+  for (const auto& [name, text] : options.ctrl) {
+    bool known = false;
+    for (const StepperActuator& s : sm.steppers) known |= s.name == name;
+    if (!known) {
+      std::string names;
+      for (const StepperActuator& s : sm.steppers) names += (names.empty() ? "" : ", ") + s.name;
+      throw std::invalid_argument(fmt::format(
+          "--ctrl {}={}: no stepper actuator named '{}' (steppers: {})", name, text, name, names));
+    }
+  }
+
+  std::optional<CsvWriter> csv;
+  if (!options.log.empty()) {
+    std::vector<std::string> header = {"time[s]"};
+    for (const StepperActuator& s : sm.steppers) {
+      header.push_back(s.name + ":theta[rad]");
+      header.push_back(s.name + ":omega[rad/s]");
+      header.push_back(s.name + ":velocity_error[rad/s]");
+      for (const SignalInfo& info : SignalTable()) {
+        header.push_back(fmt::format("{}:{}[{}]", s.name, info.name, info.unit));
+      }
+    }
+    csv.emplace(options.log, header);
+  }
+
+  const double h = m->opt.timestep;
+  const long steps = std::lround(options.duration / h);
+  RunResult result;
+  result.steppers.resize(sm.steppers.size());
+  std::vector<double> sum_sq(sm.steppers.size(), 0.0);
+  std::vector<double> row;
+  const auto start = std::chrono::steady_clock::now();
+  auto last_report = start;
+  for (long k = 0; k < steps; ++k) {
+    const double t = d->time;
+    for (size_t i = 0; i < sm.steppers.size(); ++i) {
+      const StepperActuator& s = sm.steppers[i];
+      d->ctrl[s.ctrladr] = profiles[i].ControlForStep(t, h, s.config.input, theta_start[i]);
+    }
+    mj_step(m, d);
+    // After mj_step, actuator_length/velocity and sensordata describe the step's start, time t.
+    row.assign(1, t);
+    for (size_t i = 0; i < sm.steppers.size(); ++i) {
+      const StepperActuator& s = sm.steppers[i];
+      const double omega = d->actuator_velocity[s.outadr];
+      const double omega_cmd = profiles[i].Speed(t);
+      const double error = omega - omega_cmd;
+      const double* signals = d->sensordata + s.sensor_adr;
+      StepperSummary& sum = result.steppers[i];
+      sum_sq[i] += error * error;
+      sum.max_velocity_error = std::max(sum.max_velocity_error, std::abs(error));
+      sum.max_load_angle = std::max(sum.max_load_angle, std::abs(signals[kLoadAngle]));
+      sum.lost_steps = signals[kLostSteps];
+      sum.final_speed = omega;
+      if (csv) {
+        row.insert(row.end(), {d->actuator_length[s.outadr], omega, error});
+        row.insert(row.end(), signals, signals + kNumSignals);
+      }
+    }
+    if (csv && k % options.log_every == 0) csv->Row(row);
+    const auto now = std::chrono::steady_clock::now();
+    if (options.progress && now - last_report > std::chrono::seconds(2)) {
+      last_report = now;
+      fmt::print(progress, "\r  {:5.1f} % ({:.3f} / {:.3f} s simulated)", 100.0 * (k + 1) / steps,
+                 d->time, options.duration);
+      progress.flush();
+    }
+  }
+  if (options.progress && last_report != start) fmt::print(progress, "\n");
+  if (csv) csv->Commit();
+  result.steps = steps;
+  result.sim_time = d->time;
+  result.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (size_t i = 0; i < sm.steppers.size(); ++i) {
+    result.steppers[i].name = sm.steppers[i].name;
+    result.steppers[i].profile = profiles[i].text();
+    result.steppers[i].rms_velocity_error = std::sqrt(sum_sq[i] / std::max(1L, steps));
+  }
+  return result;
+}
+
+void PrintSummary(const RunResult& r, const std::string& log, std::ostream& out) {
+  fmt::print(out, "{} steps, {:.3f} s simulated in {:.3f} s wall ({:.0f} ns/step)\n", r.steps,
+             r.sim_time, r.wall_time, 1e9 * r.wall_time / std::max(1L, r.steps));
+  for (const StepperSummary& s : r.steppers) {
+    fmt::print(out,
+               "  {}: {}\n"
+               "    final speed {:.2f} r/min; velocity error RMS {:.2f} r/min, max {:.2f} r/min\n"
+               "    max |load angle| {:.3f} rad (electrical); lost steps {:+.0f}\n",
+               s.name, s.profile, RadPerSecToRpm(s.final_speed),
+               RadPerSecToRpm(s.rms_velocity_error), RadPerSecToRpm(s.max_velocity_error),
+               s.max_load_angle, s.lost_steps);
+  }
+  if (!log.empty()) fmt::print(out, "  log: {}\n", log);
+}
+
+}  // namespace mjstepper::tools

@@ -1,0 +1,45 @@
+// `mjstepper run`: step a model with command profiles on its steppers, log every signal to CSV.
+#ifndef MJSTEPPER_TOOLS_RUNNER_H_
+#define MJSTEPPER_TOOLS_RUNNER_H_
+
+#include <iosfwd>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace mjstepper::tools {
+
+struct RunOptions {
+  std::string model;                         ///< MJCF path
+  double duration = 1.0;                     ///< s of simulated time
+  std::map<std::string, std::string> ctrl;   ///< actuator name → profile text
+  std::string log;                           ///< CSV path; empty for none
+  int log_every = 1;                         ///< log one row every N steps
+  bool progress = true;                      ///< progress line on stderr for runs over ~2 s
+};
+
+struct StepperSummary {
+  std::string name;
+  std::string profile;
+  double final_speed = 0;           ///< rad/s
+  double rms_velocity_error = 0;    ///< rad/s, ω − ωcmd over the run
+  double max_velocity_error = 0;    ///< rad/s, max |ω − ωcmd|
+  double max_load_angle = 0;        ///< electrical rad, max |δ|
+  double lost_steps = 0;            ///< full steps slipped at the end
+};
+
+struct RunResult {
+  long steps = 0;
+  double sim_time = 0;      ///< s
+  double wall_time = 0;     ///< s
+  std::vector<StepperSummary> steppers;
+};
+
+/// Throws std::runtime_error or std::invalid_argument with a message for the user.
+RunResult Run(const RunOptions& options, std::ostream& progress);
+
+void PrintSummary(const RunResult& result, const std::string& log, std::ostream& out);
+
+}  // namespace mjstepper::tools
+
+#endif  // MJSTEPPER_TOOLS_RUNNER_H_

@@ -1,0 +1,125 @@
+#include "stepper_model.h"
+
+#include <cstdlib>
+#include <stdexcept>
+#include <variant>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "config.h"
+#include "stepper.h"
+
+namespace mjstepper::tools {
+namespace {
+
+struct SpecDeleter {
+  void operator()(mjSpec* s) const { mj_deleteSpec(s); }
+};
+
+int StepperSlot() {
+  int slot = -1;
+  mjp_getPlugin(plugin::kPluginName, &slot);
+  return slot;
+}
+
+bool IsStepper(const mjModel* m, int actuator) {
+  const int instance = m->actuator_plugin[actuator];
+  return instance >= 0 && m->plugin[instance] == StepperSlot();
+}
+
+ModelPtr Compile(mjSpec* spec) {
+  ModelPtr model(mj_compile(spec, nullptr));
+  if (!model) throw std::runtime_error(fmt::format("compile error: {}", mjs_getError(spec)));
+  return model;
+}
+
+}  // namespace
+
+void LoadPluginLibrary() {
+  static const bool loaded = [] {
+    const char* env = std::getenv("MJSTEPPER_PLUGIN");
+    mj_loadPluginLibrary(env != nullptr && env[0] != '\0' ? env : MJSTEPPER_PLUGIN_PATH);
+    return true;
+  }();
+  (void)loaded;
+  if (StepperSlot() < 0) {
+    throw std::runtime_error(fmt::format("plugin {} not registered after loading {}",
+                                         plugin::kPluginName, MJSTEPPER_PLUGIN_PATH));
+  }
+}
+
+StepperModel LoadStepperModel(const std::string& path) {
+  LoadPluginLibrary();
+  char error[1024] = "";
+  std::unique_ptr<mjSpec, SpecDeleter> spec(mj_parseXML(path.c_str(), nullptr, error, sizeof(error)));
+  if (!spec) throw std::runtime_error(fmt::format("{}: {}", path, error));
+  ModelPtr model = Compile(spec.get());
+
+  // Which stepper actuators already have a probe sensor?
+  std::vector<int> probe_of(model->nactuator, -1);
+  for (int s = 0; s < model->nsensor; ++s) {
+    const int instance = model->sensor_plugin[s];
+    if (instance >= 0 && model->plugin[instance] == StepperSlot() &&
+        model->sensor_objtype[s] == mjOBJ_ACTUATOR) {
+      probe_of[model->sensor_objid[s]] = s;
+    }
+  }
+  bool added = false;
+  for (int a = 0; a < model->nactuator; ++a) {
+    if (!IsStepper(model.get(), a) || probe_of[a] >= 0) continue;
+    const char* name = mj_id2name(model.get(), mjOBJ_ACTUATOR, a);
+    if (name == nullptr) {
+      throw std::runtime_error(fmt::format(
+          "{}: stepper actuator id {} has no name; name it so that it can be logged", path, a));
+    }
+    mjsSensor* sensor = mjs_addSensor(spec.get());
+    sensor->type = mjSENS_PLUGIN;
+    sensor->objtype = mjOBJ_ACTUATOR;
+    mjs_setString(sensor->objname, name);
+    mjs_setName(sensor->element, fmt::format("mjstepper:{}", name).c_str());
+    mjs_setString(sensor->plugin.plugin_name, plugin::kPluginName);
+    sensor->plugin.active = true;
+    // Its own (implicit) instance, as the XML reader makes for <plugin plugin="..."> with no
+    // instance attribute: a probe with no config.
+    mjsPlugin* probe = mjs_addPlugin(spec.get());
+    mjs_setString(probe->plugin_name, plugin::kPluginName);
+    probe->active = true;
+    sensor->plugin.element = probe->element;
+    added = true;
+  }
+  if (added) model = Compile(spec.get());
+
+  StepperModel out;
+  for (int s = 0; s < model->nsensor; ++s) {
+    const int instance = model->sensor_plugin[s];
+    if (instance < 0 || model->plugin[instance] != StepperSlot()) continue;
+    const int a = model->sensor_objid[s];
+    const int drive_instance = model->actuator_plugin[a];
+    auto read = [&](const char* key) { return mj_getPluginConfig(model.get(), drive_instance, key); };
+    auto parsed = plugin::ParseConfig(read);
+    if (auto* e = std::get_if<std::string>(&parsed)) throw std::runtime_error(*e);
+    const char* name = mj_id2name(model.get(), mjOBJ_ACTUATOR, a);
+    out.steppers.push_back({.actuator = a,
+                            .name = name != nullptr ? name : fmt::format("actuator{}", a),
+                            .sensor_adr = model->sensor_adr[s],
+                            .config = std::get<DriveConfig>(parsed),
+                            .ctrladr = model->actuator_ctrladr[a],
+                            .outadr = model->actuator_outadr[a]});
+  }
+  out.model = std::move(model);
+  return out;
+}
+
+double ReflectedInertia(const mjModel* m, int actuator) {
+  DataPtr d(mj_makeData(m));
+  mj_forward(m, d.get());
+  std::vector<mjtNum> dense(m->nv * m->nv);
+  mj_fullM(m, d.get(), dense.data());
+  const int joint = m->actuator_trnid[2 * actuator];
+  const int dof = m->jnt_dofadr[joint];
+  const double gear = m->actuator_gear[6 * m->actuator_outadr[actuator]];
+  return dense[dof * m->nv + dof] / (gear * gear);
+}
+
+}  // namespace mjstepper::tools
