@@ -136,9 +136,10 @@ DriveConfig Parse(const AttributeReader& read) {
   if (const auto detent = r.Raw(kAttrDetent)) c.motor.detent = ParseDetent(*detent);
   r.Number(kAttrBusVoltage, "V", "must be > 0", positive, &c.bus_voltage);
   r.Number(kAttrVoltageAmplitude, "V", "must be > 0", positive, &c.voltage_amplitude);
-  if (c.voltage_amplitude > c.bus_voltage) {
-    throw Bad(kAttrVoltageAmplitude, fmt::format("{}", c.voltage_amplitude),
-              fmt::format("must be <= bus_voltage = {} (V)", c.bus_voltage));
+  if (c.kind == DriveKind::kVoltageMicrostep && c.voltage_amplitude > c.bus_voltage) {
+    throw Bad(kAttrVoltageAmplitude, r.Raw(kAttrVoltageAmplitude).value_or("24"),
+              fmt::format("must be <= bus_voltage = {} for voltage_microstep (V)",
+                          c.bus_voltage));
   }
   r.Number(kAttrHoldCurrent, "A", "must be > 0", positive, &c.hold_current);
   r.Number(kAttrKp, "V/A", "must be >= 0", non_negative, &c.kp);
@@ -146,7 +147,7 @@ DriveConfig Parse(const AttributeReader& read) {
   r.Number(kAttrIsrPeriod, "s", "must be > 0", positive, &c.isr_period);
   r.Number(kAttrComputeDelay, "s", "must be >= 0", non_negative, &c.compute_delay);
   if (!(c.compute_delay < c.isr_period)) {
-    throw Bad(kAttrComputeDelay, fmt::format("{}", c.compute_delay),
+    throw Bad(kAttrComputeDelay, r.Raw(kAttrComputeDelay).value_or("25e-6"),
               fmt::format("must be < isr_period = {} (s)", c.isr_period));
   }
   Validate(c);  // the core's own checks, as a backstop

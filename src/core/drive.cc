@@ -36,8 +36,10 @@ void Validate(const DriveConfig& c) {
   // Each check is written so that NaN fails it.
   Require(c.bus_voltage > 0 && std::isfinite(c.bus_voltage), "bus_voltage", c.bus_voltage,
           "must be finite and > 0 (V)");
-  Require(c.voltage_amplitude > 0 && c.voltage_amplitude <= c.bus_voltage, "voltage_amplitude",
-          c.voltage_amplitude, "must be > 0 and <= bus_voltage (V)");
+  Require(c.voltage_amplitude > 0 && (c.kind != DriveKind::kVoltageMicrostep ||
+                                      c.voltage_amplitude <= c.bus_voltage),
+          "voltage_amplitude", c.voltage_amplitude,
+          "must be > 0, and <= bus_voltage for voltage_microstep (V)");
   Require(c.hold_current > 0 && std::isfinite(c.hold_current), "hold_current", c.hold_current,
           "must be finite and > 0 (A)");
   Require(c.kp >= 0 && std::isfinite(c.kp), "kp", c.kp, "must be finite and >= 0 (V/A)");
@@ -133,8 +135,7 @@ void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double c
     s->current_b = i.imag();
   } else {
     const double period = config_.isr_period;  // T
-    // Events closer than this to a step's end are taken in that step: tick times k·T and the
-    // accumulated simulation time differ by round-off only.
+    // Tick times k·T and the accumulated simulation time differ by round-off only.
     const double eps = 1e-9 * period;
     if (s->next_tick * period < t0 - eps) {  // time was moved back or jumped: resynchronise
       s->next_tick = std::ceil((t0 - eps) / period);
@@ -164,7 +165,9 @@ void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double c
           s->pending ? (s->next_tick - 1) * period + config_.compute_delay : kNever;
       const double t_tick = s->next_tick * period;
       const double t_event = std::min(t_apply, t_tick);
-      if (t_event > t1 + eps) {
+      // Events in [t0, t1 − eps] belong to this step; one within eps of t1 is the next step's, so
+      // that a tick at a step boundary samples the command set for the step that starts there.
+      if (t_event > t1 - eps) {
         integrate_to(t1);
         break;
       }

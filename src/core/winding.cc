@@ -5,35 +5,58 @@
 
 namespace mjstepper {
 
+namespace {
+
+// ∫0^h e^{s·t} dt = (e^{s·h} − 1)/s, by its series where s·h is small (no cancellation at s → 0).
+PhaseVector IntegralOfExp(PhaseVector s, double h) {
+  const PhaseVector z = s * h;
+  if (std::abs(z) < 1e-3) return h * (1.0 + z / 2.0 + z * z / 6.0 + z * z * z / 24.0);
+  return (std::exp(z) - 1.0) / s;
+}
+
+}  // namespace
+
 WindingInterval::WindingInterval(const MotorParams& p, PhaseVector current0, PhaseVector voltage,
                                  double theta0, double omega)
     : p_(p), voltage_(voltage), theta0_(theta0), omega_(omega) {
   const double R = p.resistance;        // Ω
   const double L = p.inductance;        // H
   const double Km = p.torque_constant;  // V·s/rad
-  const double electrical_speed = p.rotor_teeth * omega;  // Nr·ω, rad/s
+  decay_ = R / L;
+  electrical_speed_ = p.rotor_teeth * omega;
   steady_ = voltage / R;
-  emf_gain_ = PhaseVector(0, -Km * omega) / PhaseVector(R, electrical_speed * L);
-  transient_ = current0 - steady_ - emf_gain_ * UnitPhasor(ElectricalAngle(p, theta0));
+  const PhaseVector emf_gain = PhaseVector(0, -Km * omega) / PhaseVector(R, electrical_speed_ * L);
+  emf_ = emf_gain * UnitPhasor(ElectricalAngle(p, theta0));
+  transient_ = current0 - steady_ - emf_;
 }
 
 PhaseVector WindingInterval::CurrentAt(double t) const {
-  const double x = ElectricalAngle(p_, theta0_ + omega_ * t);
-  return steady_ + emf_gain_ * UnitPhasor(x) +
-         transient_ * std::exp(-p_.resistance * t / p_.inductance);
+  return steady_ + emf_ * UnitPhasor(electrical_speed_ * t) + transient_ * std::exp(-decay_ * t);
 }
 
 IntervalEnergy WindingInterval::Energy(double h) const {
+  // With i = A + B·e^{jΩt} + C·e^{−at} (A = steady_, B = emf_, C = transient_):
+  const PhaseVector A = steady_, B = emf_, C = transient_;
+  const PhaseVector jw(0, electrical_speed_);
+  const double a = decay_;
+  const PhaseVector e_jw = IntegralOfExp(jw, h);           // ∫e^{jΩt}
+  const PhaseVector e_a = IntegralOfExp(-a, h);            // ∫e^{−at}
+  const PhaseVector e_2a = IntegralOfExp(-2 * a, h);       // ∫e^{−2at}
+  const PhaseVector e_jw_a = IntegralOfExp(jw - a, h);     // ∫e^{(jΩ−a)t}
+  const PhaseVector e_mjw_a = IntegralOfExp(-jw - a, h);   // ∫e^{−(jΩ+a)t}
   IntervalEnergy e;
-  constexpr double kWeights[3] = {1.0 / 6.0, 4.0 / 6.0, 1.0 / 6.0};
-  for (int k = 0; k < 3; ++k) {
-    const double t = 0.5 * h * k;
-    const PhaseVector i = CurrentAt(t);
-    const double theta = theta0_ + omega_ * t;
-    e.input += kWeights[k] * h * (voltage_.real() * i.real() + voltage_.imag() * i.imag());
-    e.copper += kWeights[k] * h * p_.resistance * std::norm(i);
-    e.mechanical += kWeights[k] * h * ElectromagneticTorque(p_, theta, i) * omega_;
-  }
+  // input: ∫Re(conj(v)·i)
+  e.input = (std::conj(voltage_) * (A * h + B * e_jw + C * e_a)).real();
+  // copper: R·∫|i|², |i|² expanded into its nine products
+  const double norm_integral =
+      std::norm(A) * h + std::norm(B) * h + std::norm(C) * e_2a.real() +
+      2 * (A * std::conj(B) * std::conj(e_jw)).real() + 2 * (A * std::conj(C)).real() * e_a.real() +
+      2 * (B * std::conj(C) * e_jw_a).real();
+  e.copper = p_.resistance * norm_integral;
+  // mechanical: ∫τm·ω = Km·ω·∫Im(e^{−jx(t)}·i(t)), e^{−jx(t)} = e^{−jx0}·e^{−jΩt}   (S-4)
+  const PhaseVector back = UnitPhasor(-ElectricalAngle(p_, theta0_));
+  e.mechanical = p_.torque_constant * omega_ *
+                 (back * (A * std::conj(e_jw) + B * h + C * e_mjw_a)).imag();
   return e;
 }
 

@@ -28,19 +28,21 @@ class WindingInterval {
   /// Phase currents at time t after the interval's start (A); exact for any t >= 0.
   PhaseVector CurrentAt(double t) const;
 
-  /// Energies over [0, h] by Simpson's rule on the exact solution. Every term is smooth on the
-  /// interval, so the error is O(h⁵·max(R/L, Nr·ω)⁴): below 1e-9 relative for h = 50 µs on the
-  /// presets at 1200 r/min.
+  /// Energies over [0, h], integrated in closed form from the exact solution (sums of
+  /// exponentials), so S-8 holds to round-off: a test of the solution, not of a quadrature.
   IntervalEnergy Energy(double h) const;
 
  private:
+  // i(t) = steady_ + emf_·e^{jΩt} + transient_·e^{−a·t},  Ω = Nr·ω,  a = R/L.
   const MotorParams& p_;
-  PhaseVector voltage_;   // V
-  double theta0_;         // rad
-  double omega_;          // rad/s
-  PhaseVector steady_;    // v/R, A
-  PhaseVector emf_gain_;  // P, A
-  PhaseVector transient_; // i0 − v/R − P·e^{jx0}, A
+  PhaseVector voltage_;    // V
+  double theta0_;          // rad
+  double omega_;           // rad/s
+  double decay_;           // a = R/L, 1/s
+  double electrical_speed_;  // Ω = Nr·ω, rad/s
+  PhaseVector steady_;     // v/R, A
+  PhaseVector emf_;        // P·e^{jx0}, A
+  PhaseVector transient_;  // i0 − v/R − P·e^{jx0}, A
 };
 
 /// Reference solver for tests: classical RK4 on S-3 with steps of at most max_step.

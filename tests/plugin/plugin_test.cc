@@ -1,0 +1,291 @@
+// mjstepper.stepper on real MuJoCo: the plugin checklist (STYLE.md §5, after MuJoCo's pid_test).
+#include "stepper.h"
+
+#include <cmath>
+#include <cstring>
+#include <thread>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "core/drive.h"
+#include "core/signals.h"
+#include "core/units.h"
+#include "test_model.h"
+
+namespace mjstepper::testing {
+namespace {
+
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+
+std::string VelocityTsui(const std::string& name = "m1", const std::string& joint = "j1") {
+  return TsuiActuator(name, joint, Config("input", "velocity"));
+}
+
+// A speed ramp that crosses the 42.5 r/min resonance, so that states are far from trivial.
+double RampSpeed(double t) { return RpmToRadPerSec(100) * std::min(1.0, t / 0.05); }
+
+void Step(const mjModel* m, mjData* d, int n) {
+  for (int k = 0; k < n; ++k) {
+    for (int u = 0; u < m->nu; ++u) d->ctrl[u] = RampSpeed(d->time) * (1 + 0.1 * u);
+    mj_step(m, d);
+  }
+}
+
+void ExpectSameState(const mjModel* m, const mjData* a, const mjData* b) {
+  EXPECT_EQ(a->time, b->time);
+  for (int i = 0; i < m->nq; ++i) EXPECT_EQ(a->qpos[i], b->qpos[i]) << "qpos " << i;
+  for (int i = 0; i < m->nv; ++i) EXPECT_EQ(a->qvel[i], b->qvel[i]) << "qvel " << i;
+  for (int i = 0; i < m->npluginstate; ++i) {
+    EXPECT_EQ(a->plugin_state[i], b->plugin_state[i]) << "plugin_state " << i;
+  }
+}
+
+TEST(StepperPlugin, LoadsFromMjcf) {
+  std::string error;
+  const ModelPtr m = LoadModel(RotorModel(VelocityTsui()), &error);
+  ASSERT_TRUE(m) << error;
+  EXPECT_EQ(m->nu, 1);
+  EXPECT_EQ(m->nplugin, 1);
+  EXPECT_EQ(m->plugin_statenum[0], kDriveStateSize);
+  EXPECT_DOUBLE_EQ(m->actuator_armature[0], 0.36e-4);
+}
+
+// The rotor follows a velocity command: after the ramp to 100 r/min and 0.15 s of cruise its mean
+// speed over the last 0.1 s is the command (a synchronous motor: no slip, ±0.5 % for the residual
+// oscillation at the window's ends) and no step is lost.
+TEST(StepperPlugin, RotorFollowsVelocityCommand) {
+  const ModelPtr m = LoadModel(RotorModel(VelocityTsui(), "", R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  Step(m.get(), d.get(), 4000);  // 0.2 s
+  const double q0 = d->qpos[0];
+  Step(m.get(), d.get(), 2000);  // 0.1 s
+  const double mean_speed = (d->qpos[0] - q0) / 0.1;
+  EXPECT_NEAR(mean_speed, RpmToRadPerSec(100), 0.005 * RpmToRadPerSec(100));
+  EXPECT_EQ(d->sensordata[kLostSteps], 0.0);
+}
+
+TEST(StepperPlugin, CopyDataContinuesIdentically) {
+  const ModelPtr m = LoadModel(RotorModel(VelocityTsui()));
+  ASSERT_TRUE(m);
+  const DataPtr a(mj_makeData(m.get()));
+  Step(m.get(), a.get(), 777);
+  const DataPtr b(mj_copyData(nullptr, m.get(), a.get()));
+  Step(m.get(), a.get(), 1000);
+  Step(m.get(), b.get(), 1000);
+  ExpectSameState(m.get(), a.get(), b.get());
+}
+
+TEST(StepperPlugin, ResetRestoresInitialState) {
+  const ModelPtr m = LoadModel(RotorModel(VelocityTsui()));
+  ASSERT_TRUE(m);
+  const DataPtr fresh(mj_makeData(m.get()));
+  const DataPtr used(mj_makeData(m.get()));
+  Step(m.get(), used.get(), 1500);
+  mj_resetData(m.get(), used.get());
+  for (int i = 0; i < m->npluginstate; ++i) EXPECT_EQ(used->plugin_state[i], 0.0);
+  Step(m.get(), fresh.get(), 1000);
+  Step(m.get(), used.get(), 1000);
+  ExpectSameState(m.get(), fresh.get(), used.get());
+}
+
+// A keyframe restores qpos; the drive then starts at rest on the rotor wherever it is (SPEC §6):
+// with a zero speed command the rotor stays put (to the 1e-12 rad of round-off).
+TEST(StepperPlugin, KeyframeStartsDriveAtRestOnTheRotor) {
+  std::string xml = RotorModel(VelocityTsui());
+  xml.replace(xml.find("</mujoco>"), 9, R"(<keyframe><key name="k" qpos="0.7"/></keyframe></mujoco>)");
+  const ModelPtr m = LoadModel(xml);
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  mj_resetDataKeyframe(m.get(), d.get(), 0);
+  // Detent pulls the rotor to its nearest detent-plus-magnet equilibrium: a small move only.
+  for (int k = 0; k < 2000; ++k) mj_step(m.get(), d.get());
+  EXPECT_NEAR(d->qpos[0], 0.7, 2e-3);
+}
+
+TEST(StepperPlugin, ComputeIsIdempotent) {
+  const ModelPtr m = LoadModel(RotorModel(VelocityTsui()));
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  Step(m.get(), d.get(), 300);
+  const std::vector<double> state(d->plugin_state, d->plugin_state + m->npluginstate);
+  mj_forward(m.get(), d.get());
+  const double force = d->actuator_force[0];
+  mj_forward(m.get(), d.get());
+  EXPECT_EQ(d->actuator_force[0], force);
+  for (int i = 0; i < m->npluginstate; ++i) EXPECT_EQ(d->plugin_state[i], state[i]);
+}
+
+TEST(StepperPlugin, FiniteDifferencingLeavesDriveStateAlone) {
+  const ModelPtr m = LoadModel(RotorModel(VelocityTsui()));
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  const DataPtr twin(mj_makeData(m.get()));
+  Step(m.get(), d.get(), 500);
+  Step(m.get(), twin.get(), 500);
+  const int nx = 2 * m->nv + m->na;
+  std::vector<mjtNum> A(nx * nx), B(nx * m->nu);
+  mjd_transitionFD(m.get(), d.get(), 1e-6, 1, A.data(), B.data(), nullptr, nullptr);
+  ExpectSameState(m.get(), d.get(), twin.get());
+  // The Jacobian sees the motor: ∂qvel'/∂qpos ≈ −h·T'/J, T' = 28.5 N·m/rad (currents held).
+  EXPECT_LT(A[nx * 1 + 0], 0.0);
+  Step(m.get(), d.get(), 200);
+  Step(m.get(), twin.get(), 200);
+  ExpectSameState(m.get(), d.get(), twin.get());
+}
+
+// A named instance shared by two actuators, and two implicit instances with the same config,
+// give bit-identical motion: each actuator keeps its own drive state.
+TEST(StepperPlugin, SharedInstanceAndSeparateInstancesGiveSameMotion) {
+  const std::string shared_actuators =
+      R"(<plugin name="m1" joint="j1" instance="drive" armature="0.36e-4" damping="0.001"/>)"
+      R"(<plugin name="m2" joint="j2" instance="drive" armature="0.36e-4" damping="0.001"/>)";
+  const std::string shared_instance =
+      R"(<instance name="drive">)" + Config("input", "velocity") + "</instance>";
+  const ModelPtr shared = LoadModel(RotorModel(shared_actuators, shared_instance, "", 2));
+  const ModelPtr separate =
+      LoadModel(RotorModel(VelocityTsui("m1", "j1") + VelocityTsui("m2", "j2"), "", "", 2));
+  ASSERT_TRUE(shared);
+  ASSERT_TRUE(separate);
+  EXPECT_EQ(shared->nplugin, 1);
+  EXPECT_EQ(separate->nplugin, 2);
+  const DataPtr a(mj_makeData(shared.get())), b(mj_makeData(separate.get()));
+  Step(shared.get(), a.get(), 2000);
+  Step(separate.get(), b.get(), 2000);
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_EQ(a->qpos[j], b->qpos[j]) << "joint " << j;
+    EXPECT_EQ(a->qvel[j], b->qvel[j]) << "joint " << j;
+  }
+  EXPECT_NE(a->qpos[0], a->qpos[1]);  // different commands: the drives did not share state
+}
+
+// One mjData per thread, 4 threads, each bit-identical to the same run done serially.
+TEST(StepperPlugin, OneDataPerThreadMatchesSerial) {
+  const ModelPtr m = LoadModel(RotorModel(VelocityTsui()));
+  ASSERT_TRUE(m);
+  constexpr int kThreads = 4;
+  auto run = [&](int i, std::vector<double>* out) {
+    DataPtr d(mj_makeData(m.get()));
+    for (int k = 0; k < 3000; ++k) {
+      d->ctrl[0] = RampSpeed(d->time) * (1 + 0.2 * i);
+      mj_step(m.get(), d.get());
+    }
+    out->assign(d->plugin_state, d->plugin_state + m->npluginstate);
+    out->push_back(d->qpos[0]);
+    out->push_back(d->qvel[0]);
+  };
+  std::vector<std::vector<double>> serial(kThreads), parallel(kThreads);
+  for (int i = 0; i < kThreads; ++i) run(i, &serial[i]);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kThreads; ++i) threads.emplace_back(run, i, &parallel[i]);
+  for (std::thread& t : threads) t.join();
+  for (int i = 0; i < kThreads; ++i) EXPECT_EQ(parallel[i], serial[i]) << "thread " << i;
+  EXPECT_NE(serial[0], serial[1]);
+}
+
+// The signal sensor reports the drive's state and what MuJoCo applied: at rest on θ = 0 with the
+// Tsui drive, ia = 1.9 A, ib = 0, id = 1.9 A, and torque_total equals actuator_force.
+TEST(StepperPlugin, SignalSensorReportsDriveState) {
+  const ModelPtr m = LoadModel(RotorModel(
+      VelocityTsui(), "", R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  ASSERT_TRUE(m);
+  EXPECT_EQ(m->sensor_dim[0], kNumSignals);
+  const DataPtr d(mj_makeData(m.get()));
+  mj_forward(m.get(), d.get());
+  const double* s = d->sensordata;
+  EXPECT_DOUBLE_EQ(s[kCurrentA], 1.9);
+  EXPECT_DOUBLE_EQ(s[kCurrentB], 0.0);
+  EXPECT_DOUBLE_EQ(s[kCurrentD], 1.9);
+  EXPECT_DOUBLE_EQ(s[kVoltageA], 1.9 * 0.9);
+  Step(m.get(), d.get(), 500);
+  mj_forward(m.get(), d.get());
+  EXPECT_EQ(s[kTorqueTotal], d->actuator_force[0]);
+  EXPECT_NEAR(s[kTorqueTotal], s[kTorqueEm] + s[kTorqueDetent], 1e-15);
+  EXPECT_NEAR(s[kLoadAngle], 50 * (s[kThetaCmd] - d->actuator_length[0]), 1e-12);
+}
+
+// With gear g the rotor angle is g·q (actuator_length): a velocity command ω turns the joint at
+// ω/g, and the reflected armature is the user's business (armature is set on the joint side).
+TEST(StepperPlugin, GearScalesRotorToJoint) {
+  const std::string actuator =
+      R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" gear="4" armature="5.76e-4" damping="0.016">)" +
+      Config("input", "velocity") + "</plugin>";
+  const ModelPtr m = LoadModel(RotorModel(actuator));
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  Step(m.get(), d.get(), 4000);
+  const double q0 = d->qpos[0];
+  Step(m.get(), d.get(), 2000);
+  EXPECT_NEAR((d->qpos[0] - q0) / 0.1, RpmToRadPerSec(100) / 4, 0.005 * RpmToRadPerSec(100) / 4);
+}
+
+struct BadConfig {
+  const char* key;
+  const char* value;
+  const char* rule;  // a word of the expected rule
+};
+
+class BadConfigFailsLoad : public ::testing::TestWithParam<BadConfig> {};
+
+TEST_P(BadConfigFailsLoad, NamesAttributeAndValue) {
+  const BadConfig& bad = GetParam();
+  std::string error;
+  const ModelPtr m =
+      LoadModel(RotorModel(TsuiActuator("shaft", "j1", Config(bad.key, bad.value))), &error);
+  EXPECT_FALSE(m);
+  EXPECT_THAT(error, AllOf(HasSubstr("actuator 'shaft'"), HasSubstr(bad.key),
+                           HasSubstr(std::string("\"") + bad.value + "\""), HasSubstr(bad.rule)));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    StepperPlugin, BadConfigFailsLoad,
+    ::testing::Values(BadConfig{"resistance", "-0.9", "> 0"},
+                      BadConfig{"inductance", "0", "> 0"},
+                      BadConfig{"torque_constant", "nan", "not a finite number"},
+                      BadConfig{"bus_voltage", "48V", "not a finite number"},
+                      BadConfig{"hold_current", "1.9 A", "not a finite number"},
+                      BadConfig{"kp", "inf", "not a finite number"},
+                      BadConfig{"drive", "stepper9000", "unknown drive"},
+                      BadConfig{"motor", "tsui2010", "unknown preset"},
+                      BadConfig{"input", "torque", "position"},
+                      BadConfig{"rotor_teeth", "50.5", "integer"},
+                      BadConfig{"detent", "4 0.006", "triplets"},
+                      BadConfig{"compute_delay", "50e-6", "< isr_period"},
+                      BadConfig{"voltage_amplitude", "-1", "> 0"},
+                      BadConfig{"ki", "-0.01", ">= 0"},
+                      BadConfig{"isr_period", "0", "> 0"}),
+    [](const ::testing::TestParamInfo<BadConfig>& info) {
+      return std::string(info.param.key) + "_" + std::to_string(info.index);
+    });
+
+TEST(StepperPlugin, UnknownAttributeFailsLoad) {
+  std::string error;
+  const ModelPtr m =
+      LoadModel(RotorModel(TsuiActuator("shaft", "j1", Config("hold_curent", "1.9"))), &error);
+  EXPECT_FALSE(m);
+  EXPECT_THAT(error, HasSubstr("hold_curent"));
+}
+
+TEST(StepperPlugin, SensorNeedsAStepperActuator) {
+  std::string error;
+  const ModelPtr m = LoadModel(
+      RotorModel(VelocityTsui() + R"(<motor name="plain" joint="j1"/>)", "",
+                 R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="plain"/>)"),
+      &error);
+  EXPECT_FALSE(m);
+  EXPECT_THAT(error, AllOf(HasSubstr("sensor 's'"), HasSubstr("objtype=\"actuator\"")));
+}
+
+TEST(StepperPlugin, VersionMismatchNamesBothVersions) {
+  EXPECT_EQ(plugin::VersionMismatch(3014000, 3014000), "");
+  EXPECT_THAT(plugin::VersionMismatch(3014000, 3003007),
+              AllOf(HasSubstr("3.14.0"), HasSubstr("3.3.7"), HasSubstr("3014000")));
+  // And the library this test runs with is the one it was built for.
+  EXPECT_EQ(plugin::VersionMismatch(mjVERSION_HEADER, mj_version()), "");
+}
+
+}  // namespace
+}  // namespace mjstepper::testing

@@ -1,0 +1,70 @@
+// Inline MJCF for plugin tests: rotors on hinge joints driven by mjstepper.stepper.
+#ifndef MJSTEPPER_TESTS_PLUGIN_TEST_MODEL_H_
+#define MJSTEPPER_TESTS_PLUGIN_TEST_MODEL_H_
+
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+#include <mujoco/mujoco.h>
+
+namespace mjstepper::testing {
+
+struct ModelDeleter {
+  void operator()(mjModel* m) const { mj_deleteModel(m); }
+};
+struct DataDeleter {
+  void operator()(mjData* d) const { mj_deleteData(d); }
+};
+using ModelPtr = std::unique_ptr<mjModel, ModelDeleter>;
+using DataPtr = std::unique_ptr<mjData, DataDeleter>;
+
+/// `joints` rotors j1..jN (negligible body inertia), with the given actuator, extension and
+/// sensor sections, timestep h and implicitfast.
+inline std::string RotorModel(const std::string& actuators, const std::string& extension = "",
+                              const std::string& sensors = "", int joints = 1,
+                              double timestep = 5e-5, const std::string& joint_attrs = "") {
+  std::string bodies;
+  for (int j = 1; j <= joints; ++j) {
+    bodies += fmt::format(
+        R"(<body name="r{0}"><joint name="j{0}" type="hinge" axis="0 0 1" {1}/>)"
+        R"(<inertial pos="0 0 0" mass="0.001" diaginertia="1e-9 1e-9 1e-9"/></body>)",
+        j, joint_attrs);
+  }
+  return fmt::format(R"(<mujoco>
+  <option timestep="{}" integrator="implicitfast"/>
+  <extension><plugin plugin="mjstepper.stepper">{}</plugin></extension>
+  <worldbody>{}</worldbody>
+  <actuator>{}</actuator>
+  <sensor>{}</sensor>
+</mujoco>)",
+                     timestep, extension, bodies, actuators, sensors);
+}
+
+/// A Tsui actuator on joint `joint`, armature and damping from the preset, extra <config>s.
+inline std::string TsuiActuator(const std::string& name, const std::string& joint,
+                                const std::string& configs) {
+  return fmt::format(
+      R"(<plugin name="{}" joint="{}" plugin="mjstepper.stepper" armature="0.36e-4" damping="0.001">{}</plugin>)",
+      name, joint, configs);
+}
+
+inline std::string Config(const std::string& key, const std::string& value) {
+  return fmt::format(R"(<config key="{}" value="{}"/>)", key, value);
+}
+
+/// Loads through mj_loadXML (from an in-memory VFS), the path a C user takes.
+inline ModelPtr LoadModel(const std::string& xml, std::string* error = nullptr) {
+  mjVFS vfs;
+  mj_defaultVFS(&vfs);
+  mj_addBufferVFS(&vfs, "model.xml", xml.data(), static_cast<int>(xml.size()));
+  char buffer[2048] = "";
+  ModelPtr m(mj_loadXML("model.xml", &vfs, buffer, sizeof(buffer)));
+  mj_deleteVFS(&vfs);
+  if (error != nullptr) *error = buffer;
+  return m;
+}
+
+}  // namespace mjstepper::testing
+
+#endif  // MJSTEPPER_TESTS_PLUGIN_TEST_MODEL_H_

@@ -1,0 +1,45 @@
+"""The plugin from Python: mujoco.mj_loadPluginLibrary, load MJCF, step, read signals."""
+import math
+import os
+import unittest
+
+import mujoco
+
+PLUGIN = os.environ["MJSTEPPER_PLUGIN"]
+SOURCE = os.environ["MJSTEPPER_SOURCE_DIR"]
+
+
+class PluginFromPython(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        mujoco.mj_loadPluginLibrary(PLUGIN)
+
+    def test_loads_steps_and_reads_signals(self):
+        with open(os.path.join(SOURCE, "models", "tsui_rigid.xml")) as f:
+            xml = f.read()
+        probe = ('<sensor><plugin name="shaft_signals" plugin="mjstepper.stepper" '
+                 'objtype="actuator" objname="shaft"/></sensor></mujoco>')
+        model = mujoco.MjModel.from_xml_string(xml.replace("</mujoco>", probe))
+        data = mujoco.MjData(model)
+        omega = 100 * 2 * math.pi / 60  # rad/s
+        for _ in range(4000):  # 0.2 s at 100 r/min (velocity input)
+            data.ctrl[0] = omega
+            mujoco.mj_step(model, data)
+        signals = data.sensor("shaft_signals").data
+        self.assertEqual(len(signals), 16)
+        # The rotor turned about ω·t (a synchronous motor; ±2 % for the start transient).
+        self.assertAlmostEqual(data.qpos[0] / (omega * 0.2), 1.0, delta=0.02)
+        # Current amplitude held near 1.9 A by the PI loop (±10 %: ripple and loop lag).
+        self.assertAlmostEqual(math.hypot(signals[0], signals[1]), 1.9, delta=0.19)
+        self.assertEqual(signals[12], 0.0)  # no lost steps
+
+    def test_bad_config_names_attribute(self):
+        with open(os.path.join(SOURCE, "models", "tsui_rigid.xml")) as f:
+            xml = f.read().replace('value="1.9"', 'value="-1.9"')
+        with self.assertRaises(ValueError) as ctx:
+            mujoco.MjModel.from_xml_string(xml)
+        self.assertIn('hold_current = "-1.9"', str(ctx.exception))
+
+
+if __name__ == "__main__":
+    unittest.main()

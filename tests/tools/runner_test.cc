@@ -1,0 +1,94 @@
+// The mjstepper command end to end: run writes a complete CSV with units, info describes steppers.
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace {
+
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+
+struct Result {
+  int status = 0;
+  std::string output;  // stdout and stderr
+};
+
+Result RunCli(const std::string& args) {
+  const std::string command = std::string(MJSTEPPER_CLI) + " " + args + " 2>&1";
+  Result r;
+  FILE* pipe = popen(command.c_str(), "r");
+  char buffer[4096];
+  while (size_t n = fread(buffer, 1, sizeof(buffer), pipe)) r.output.append(buffer, n);
+  r.status = pclose(pipe);
+  return r;
+}
+
+const std::string kModel = MJSTEPPER_SOURCE_DIR "/models/tsui_rigid.xml";
+
+std::filesystem::path TempDir() {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("mjstepper_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+TEST(Runner, RunWritesCsvWithUnitsAndNoTemporaryFile) {
+  const auto csv = TempDir() / "ramp.csv";
+  const Result r = RunCli("run " + kModel + " --duration 0.05 --ctrl 'shaft=ramp(0rpm,200rpm,0.8s)' --log " +
+                          csv.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, AllOf(HasSubstr("1000 steps"), HasSubstr("shaft"), HasSubstr("lost steps")));
+  ASSERT_TRUE(std::filesystem::exists(csv));
+  EXPECT_FALSE(std::filesystem::exists(csv.string() + ".tmp"));
+  std::ifstream in(csv);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_THAT(header, AllOf(HasSubstr("time[s]"), HasSubstr("shaft:current_a[A]"),
+                            HasSubstr("shaft:omega[rad/s]"), HasSubstr("shaft:torque_em[N·m]")));
+  int rows = 0;
+  std::string line;
+  while (std::getline(in, line)) ++rows;
+  EXPECT_EQ(rows, 1000);
+}
+
+TEST(Runner, BadProfileOrActuatorFailsWithoutOutput) {
+  const auto csv = TempDir() / "bad.csv";
+  Result r = RunCli("run " + kModel + " --duration 0.01 --ctrl 'shaft=ramp(0rpm)' --log " +
+                    csv.string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("ramp(0rpm)"));
+  r = RunCli("run " + kModel + " --duration 0.01 --ctrl 'axle=constant(10rpm)' --log " +
+             csv.string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, AllOf(HasSubstr("axle"), HasSubstr("shaft")));
+  EXPECT_FALSE(std::filesystem::exists(csv));
+}
+
+TEST(Runner, InfoGivesNaturalFrequencyAndResonantSpeeds) {
+  const Result r = RunCli("info " + kModel);
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, AllOf(HasSubstr("141.61 Hz"), HasSubstr("169.9 r/min"),
+                              HasSubstr("85.0 r/min"), HasSubstr("42.5 r/min")));
+  EXPECT_THAT(r.output, ::testing::Not(HasSubstr("warning")));
+}
+
+TEST(Runner, InfoWarnsWhenTimestepIsTooCoarse) {
+  std::ifstream in(kModel);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string xml = text.str();
+  xml.replace(xml.find("timestep=\"5e-5\""), 15, "timestep=\"1e-3\"");
+  const auto path = TempDir() / "coarse.xml";
+  std::ofstream(path) << xml;
+  const Result r = RunCli("info " + path.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, AllOf(HasSubstr("warning"), HasSubstr("too coarse"), HasSubstr("0.001")));
+}
+
+}  // namespace
