@@ -2,14 +2,14 @@
 // beside models/tsui_rigid_dcmotor.xml (the same load on MuJoCo's dcmotor, inductance on), in one
 // run, same timestep. Each model: warm-up, then the best of 5 rounds of 100000 steps (minimum:
 // the least disturbed by the other core's load). Usage: bench_step [steps_per_round].
+#include <fmt/format.h>
+#include <mujoco/mujoco.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
-
-#include <fmt/format.h>
-#include <mujoco/mujoco.h>
 
 namespace {
 

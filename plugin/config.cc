@@ -1,11 +1,11 @@
 #include "config.h"
 
+#include <fmt/format.h>
+
 #include <charconv>
 #include <cmath>
 #include <optional>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "core/presets.h"
 
@@ -79,9 +79,8 @@ std::vector<DetentHarmonic> ParseDetent(const std::string& raw) {
       throw Bad(kAttrDetent, raw, "harmonic order must be an integer in [1, 1000]");
     }
     if (values[1] < 0) throw Bad(kAttrDetent, raw, "amplitude must be >= 0 (N·m)");
-    harmonics.push_back({.order = static_cast<int>(values[0]),
-                         .amplitude = values[1],
-                         .phase = values[2]});
+    harmonics.push_back(
+        {.order = static_cast<int>(values[0]), .amplitude = values[1], .phase = values[2]});
   }
   if (harmonics.empty()) throw Bad(kAttrDetent, raw, rule);
   return harmonics;
@@ -127,8 +126,9 @@ DriveConfig Parse(const AttributeReader& read) {
   auto positive = [](double v) { return v > 0; };
   auto non_negative = [](double v) { return v >= 0; };
   double teeth = c.motor.rotor_teeth;
-  r.Number(kAttrRotorTeeth, "-", "must be an integer in [1, 1000]",
-           [](double v) { return v >= 1 && v <= 1000 && v == std::floor(v); }, &teeth);
+  r.Number(
+      kAttrRotorTeeth, "-", "must be an integer in [1, 1000]",
+      [](double v) { return v >= 1 && v <= 1000 && v == std::floor(v); }, &teeth);
   c.motor.rotor_teeth = static_cast<int>(teeth);
   r.Number(kAttrResistance, "Ω", "must be > 0", positive, &c.motor.resistance);
   r.Number(kAttrInductance, "H", "must be > 0", positive, &c.motor.inductance);
@@ -138,8 +138,7 @@ DriveConfig Parse(const AttributeReader& read) {
   r.Number(kAttrVoltageAmplitude, "V", "must be > 0", positive, &c.voltage_amplitude);
   if (c.kind == DriveKind::kVoltageMicrostep && c.voltage_amplitude > c.bus_voltage) {
     throw Bad(kAttrVoltageAmplitude, r.Raw(kAttrVoltageAmplitude).value_or("24"),
-              fmt::format("must be <= bus_voltage = {} for voltage_microstep (V)",
-                          c.bus_voltage));
+              fmt::format("must be <= bus_voltage = {} for voltage_microstep (V)", c.bus_voltage));
   }
   r.Number(kAttrHoldCurrent, "A", "must be > 0", positive, &c.hold_current);
   r.Number(kAttrKp, "V/A", "must be >= 0", non_negative, &c.kp);
@@ -157,11 +156,21 @@ DriveConfig Parse(const AttributeReader& read) {
 }  // namespace
 
 const std::vector<const char*>& AttributeNames() {
-  static const std::vector<const char*> names = {
-      kAttrMotor,      kAttrDrive,       kAttrInput,          kAttrRotorTeeth,
-      kAttrResistance, kAttrInductance,  kAttrTorqueConstant, kAttrDetent,
-      kAttrBusVoltage, kAttrVoltageAmplitude, kAttrHoldCurrent, kAttrKp,
-      kAttrKi,         kAttrIsrPeriod,   kAttrComputeDelay};
+  static const std::vector<const char*> names = {kAttrMotor,
+                                                 kAttrDrive,
+                                                 kAttrInput,
+                                                 kAttrRotorTeeth,
+                                                 kAttrResistance,
+                                                 kAttrInductance,
+                                                 kAttrTorqueConstant,
+                                                 kAttrDetent,
+                                                 kAttrBusVoltage,
+                                                 kAttrVoltageAmplitude,
+                                                 kAttrHoldCurrent,
+                                                 kAttrKp,
+                                                 kAttrKi,
+                                                 kAttrIsrPeriod,
+                                                 kAttrComputeDelay};
   return names;
 }
 

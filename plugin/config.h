@@ -13,21 +13,21 @@
 
 namespace mjstepper::plugin {
 
-inline constexpr char kAttrMotor[] = "motor";                  // preset name
-inline constexpr char kAttrDrive[] = "drive";                  // controller
-inline constexpr char kAttrInput[] = "input";                  // position | velocity
-inline constexpr char kAttrRotorTeeth[] = "rotor_teeth";       // Nr
-inline constexpr char kAttrResistance[] = "resistance";        // Ω
-inline constexpr char kAttrInductance[] = "inductance";        // H
-inline constexpr char kAttrTorqueConstant[] = "torque_constant";  // N·m/A
-inline constexpr char kAttrDetent[] = "detent";                // "h Kdh φh; ..." or "none"
-inline constexpr char kAttrBusVoltage[] = "bus_voltage";       // V
+inline constexpr char kAttrMotor[] = "motor";                         // preset name
+inline constexpr char kAttrDrive[] = "drive";                         // controller
+inline constexpr char kAttrInput[] = "input";                         // position | velocity
+inline constexpr char kAttrRotorTeeth[] = "rotor_teeth";              // Nr
+inline constexpr char kAttrResistance[] = "resistance";               // Ω
+inline constexpr char kAttrInductance[] = "inductance";               // H
+inline constexpr char kAttrTorqueConstant[] = "torque_constant";      // N·m/A
+inline constexpr char kAttrDetent[] = "detent";                       // "h Kdh φh; ..." or "none"
+inline constexpr char kAttrBusVoltage[] = "bus_voltage";              // V
 inline constexpr char kAttrVoltageAmplitude[] = "voltage_amplitude";  // V
-inline constexpr char kAttrHoldCurrent[] = "hold_current";     // A
-inline constexpr char kAttrKp[] = "kp";                        // V/A
-inline constexpr char kAttrKi[] = "ki";                        // V/A per tick
-inline constexpr char kAttrIsrPeriod[] = "isr_period";         // s
-inline constexpr char kAttrComputeDelay[] = "compute_delay";   // s
+inline constexpr char kAttrHoldCurrent[] = "hold_current";            // A
+inline constexpr char kAttrKp[] = "kp";                               // V/A
+inline constexpr char kAttrKi[] = "ki";                               // V/A per tick
+inline constexpr char kAttrIsrPeriod[] = "isr_period";                // s
+inline constexpr char kAttrComputeDelay[] = "compute_delay";          // s
 
 /// Every attribute, in the order of the README table.
 const std::vector<const char*>& AttributeNames();

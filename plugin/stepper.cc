@@ -1,12 +1,12 @@
 #include "stepper.h"
 
+#include <fmt/format.h>
+#include <mujoco/mujoco.h>
+
 #include <algorithm>
 #include <exception>
 #include <string>
 #include <variant>
-
-#include <fmt/format.h>
-#include <mujoco/mujoco.h>
 
 #include "config.h"
 #include "core/signals.h"
@@ -45,14 +45,17 @@ std::vector<int> BoundActuators(const mjModel* m, int instance) {
 
 bool IsStepperInstance(const mjModel* m, int instance) {
   int slot = -1;
-  return instance >= 0 && mjp_getPlugin(kPluginName, &slot) != nullptr && m->plugin[instance] == slot;
+  return instance >= 0 && mjp_getPlugin(kPluginName, &slot) != nullptr &&
+         m->plugin[instance] == slot;
 }
 
 }  // namespace
 
 std::string VersionMismatch(int built_for, int running) {
   if (built_for == running) return "";
-  auto dotted = [](int v) { return fmt::format("{}.{}.{}", v / 1000000, v / 1000 % 1000, v % 1000); };
+  auto dotted = [](int v) {
+    return fmt::format("{}.{}.{}", v / 1000000, v / 1000 % 1000, v % 1000);
+  };
   return fmt::format(
       "mjstepper: built for MuJoCo {} ({}) but running with libmujoco {} ({}); rebuild mjstepper "
       "against the libmujoco it runs with (requirements.txt pins the version)",
@@ -79,9 +82,10 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
     for (const char* name : AttributeNames()) {
       const char* value = read(name);
       if (value != nullptr && value[0] != '\0') {
-        return fail(fmt::format("{} = \"{}\": a signal sensor takes no config; configure the "
-                                "actuator's drive instead",
-                                name, value));
+        return fail(
+            fmt::format("{} = \"{}\": a signal sensor takes no config; configure the "
+                        "actuator's drive instead",
+                        name, value));
       }
     }
     for (int s = 0; s < m->nsensor; ++s) {
@@ -89,8 +93,9 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
       const int a = m->sensor_objid[s];
       if (m->sensor_objtype[s] != mjOBJ_ACTUATOR || a < 0 ||
           !IsStepperInstance(m, m->actuator_plugin[a])) {
-        return fail("a mjstepper.stepper sensor needs objtype=\"actuator\" and objname naming an "
-                    "actuator driven by mjstepper.stepper");
+        return fail(
+            "a mjstepper.stepper sensor needs objtype=\"actuator\" and objname naming an "
+            "actuator driven by mjstepper.stepper");
       }
     }
     return stepper;
@@ -102,13 +107,14 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
 
   for (int s = 0; s < m->nsensor; ++s) {
     if (m->sensor_plugin[s] == instance) {
-      return fail("sensors read a drive through objtype=\"actuator\" objname=\"...\" and no "
-                  "instance; see plugin/README.md");
+      return fail(
+          "sensors read a drive through objtype=\"actuator\" objname=\"...\" and no "
+          "instance; see plugin/README.md");
     }
   }
   for (int a : bound) {
-    const std::string actuator = fmt::format("actuator '{}' (id {})",
-                                             NameOf(m, m->name_actuatoradr[a]), a);
+    const std::string actuator =
+        fmt::format("actuator '{}' (id {})", NameOf(m, m->name_actuatoradr[a]), a);
     const int joint = m->actuator_trnid[2 * a];
     if (m->actuator_trntype[a] != mjTRN_JOINT || joint < 0 ||
         (m->jnt_type[joint] != mjJNT_HINGE && m->jnt_type[joint] != mjJNT_SLIDE)) {
@@ -147,8 +153,7 @@ mjtNum* Stepper::Slot(const mjModel* m, const mjData* d, int instance, int slot)
   return d->plugin_state + m->plugin_stateadr[instance] + slot * kDriveStateSize;
 }
 
-DriveState Stepper::CurrentState(const mjModel* m, const mjData* d, int instance,
-                                 int slot) const {
+DriveState Stepper::CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const {
   DriveState state = LoadState(Slot(m, d, instance, slot));
   if (!state.started) {
     const Actuator& a = actuators_[slot];

@@ -10,12 +10,12 @@
 #ifndef MJSTEPPER_PLUGIN_STEPPER_H_
 #define MJSTEPPER_PLUGIN_STEPPER_H_
 
+#include <mujoco/mujoco.h>
+
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <mujoco/mujoco.h>
 
 #include "core/drive.h"
 
@@ -65,8 +65,8 @@ class Stepper {
   DriveState CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const;
   void ComputeProbe(const mjModel* m, mjData* d, int instance) const;
 
-  std::optional<Drive> drive_;        // empty for a probe
-  std::vector<Actuator> actuators_;   // bound actuators, in id order
+  std::optional<Drive> drive_;       // empty for a probe
+  std::vector<Actuator> actuators_;  // bound actuators, in id order
 };
 
 /// Registers the plugin with MuJoCo (idempotent).

@@ -1,10 +1,9 @@
 #include "core/analysis.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <numeric>
-
-#include <Eigen/Dense>
 
 #include "core/units.h"
 

@@ -1,12 +1,12 @@
 #include "core/command_profile.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "core/units.h"
 
@@ -33,8 +33,8 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole) {
   const char* begin = t.data() + (!t.empty() && t[0] == '+' ? 1 : 0);
   const auto [ptr, ec] = std::from_chars(begin, t.data() + t.size(), v);
   if (ec != std::errc() || !std::isfinite(v)) {
-    throw std::invalid_argument(fmt::format("profile \"{}\": \"{}\" is not a number with a unit",
-                                            whole, t));
+    throw std::invalid_argument(
+        fmt::format("profile \"{}\": \"{}\" is not a number with a unit", whole, t));
   }
   const std::string unit = Trim(std::string_view(ptr, t.data() + t.size() - ptr));
   if (unit == "rpm" || unit == "r/min") return {RpmToRadPerSec(v), Dim::kSpeed};
@@ -74,7 +74,8 @@ CommandProfile CommandProfile::Parse(std::string_view text) {
   CommandProfile p;
   p.text_ = whole;
   if (name == "constant") {
-    if (args.size() != 1 || args[0].dim == Dim::kTime) throw bad("constant(speed) or constant(angle)");
+    if (args.size() != 1 || args[0].dim == Dim::kTime)
+      throw bad("constant(speed) or constant(angle)");
     p.kind_ = args[0].dim == Dim::kSpeed ? Kind::kConstantSpeed : Kind::kAngleHold;
     p.a_ = args[0].value;
   } else if (name == "ramp") {

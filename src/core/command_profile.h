@@ -37,7 +37,7 @@ class CommandProfile {
  private:
   enum class Kind { kConstantSpeed, kAngleHold, kSpeedRamp, kAngleRamp, kTrapezoid };
   Kind kind_ = Kind::kConstantSpeed;
-  double a_ = 0, b_ = 0;       // speeds (rad/s) or angles (rad)
+  double a_ = 0, b_ = 0;             // speeds (rad/s) or angles (rad)
   double t1_ = 0, t2_ = 0, t3_ = 0;  // s
   std::string text_;
 };

@@ -1,12 +1,12 @@
 #include "core/drive.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 #include "core/motor.h"
 #include "core/units.h"
@@ -36,8 +36,8 @@ void Validate(const DriveConfig& c) {
   // Each check is written so that NaN fails it.
   Require(c.bus_voltage > 0 && std::isfinite(c.bus_voltage), "bus_voltage", c.bus_voltage,
           "must be finite and > 0 (V)");
-  Require(c.voltage_amplitude > 0 && (c.kind != DriveKind::kVoltageMicrostep ||
-                                      c.voltage_amplitude <= c.bus_voltage),
+  Require(c.voltage_amplitude > 0 &&
+              (c.kind != DriveKind::kVoltageMicrostep || c.voltage_amplitude <= c.bus_voltage),
           "voltage_amplitude", c.voltage_amplitude,
           "must be > 0, and <= bus_voltage for voltage_microstep (V)");
   Require(c.hold_current > 0 && std::isfinite(c.hold_current), "hold_current", c.hold_current,
@@ -47,8 +47,8 @@ void Validate(const DriveConfig& c) {
           "must be finite and >= 0 (V/A per tick)");
   Require(c.isr_period > 0 && std::isfinite(c.isr_period), "isr_period", c.isr_period,
           "must be finite and > 0 (s)");
-  Require(c.compute_delay >= 0 && c.compute_delay < c.isr_period, "compute_delay",
-          c.compute_delay, "must be >= 0 and < isr_period (s)");
+  Require(c.compute_delay >= 0 && c.compute_delay < c.isr_period, "compute_delay", c.compute_delay,
+          "must be >= 0 and < isr_period (s)");
   Require(c.rk4_step > 0, "rk4_step", c.rk4_step, "must be > 0 (s)");
 }
 
@@ -118,8 +118,8 @@ void Drive::Tick(DriveState* s, const ControlSample& sample) const {
 
 void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double command) const {
   const MotorParams& motor = config_.motor;
-  const double h = t1 - t0;                            // s
-  const double theta0 = s->theta;                      // rad
+  const double h = t1 - t0;                                  // s
+  const double theta0 = s->theta;                            // rad
   const double omega = h > 0 ? (theta1 - theta0) / h : 0.0;  // rad/s, constant over the step
   const double theta_cmd0 = s->theta_cmd;
   const double omega_cmd =

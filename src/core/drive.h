@@ -1,5 +1,6 @@
 // The multi-rate stepper drive: interrupt clock, sample → compute → apply after the computation
-// delay → zero-order hold (S-15), the bridges (S-13), and the windings integrated exactly in between.
+// delay → zero-order hold (S-15), the bridges (S-13), and the windings integrated exactly in
+// between.
 //
 // Time line of interrupt k (t_k = k·T, T = isr_period, absolute, independent of any simulation
 // step; D = compute_delay, 0 <= D < T):
@@ -49,7 +50,7 @@ struct DriveConfig {
   double isr_period = 50e-6;        ///< T, s: interrupt period (S-15)
   double compute_delay = 25e-6;     ///< D, s: from sample to new voltage, 0 <= D < T (S-15)
   WindingSolver solver = WindingSolver::kExact;
-  double rk4_step = 1e-6;           ///< s, step of the kRk4 reference
+  double rk4_step = 1e-6;  ///< s, step of the kRk4 reference
 };
 
 /// Throws std::invalid_argument naming the field, value and rule.
@@ -59,29 +60,28 @@ void Validate(const DriveConfig& c);
 /// (MuJoCo: plugin_state) and copy, reset and snapshot it. All zero = "not started": the drive then
 /// starts at rest on the rotor (Drive::Rest), SPEC §6.
 struct DriveState {
-  double started = 0;         ///< 0 until the drive has been anchored to a rotor angle
-  double theta = 0;           ///< rad, rotor angle at the state's time
-  double theta_cmd = 0;       ///< rad, commanded angle at the state's time
-  double omega_cmd = 0;       ///< rad/s, commanded speed over the last step
-  double current_a = 0;       ///< A
-  double current_b = 0;       ///< A
-  double voltage_a = 0;       ///< V, applied now (held)
-  double voltage_b = 0;       ///< V
-  double pending_a = 0;       ///< V, computed at the last tick, applied at that tick + D
-  double pending_b = 0;       ///< V
-  double pending = 0;         ///< 1 while pending_a/b wait for their apply time
-  double next_tick = 0;       ///< k of the next interrupt, at k·T
-  double integral_d = 0;      ///< V, PI integrator s, d axis
-  double integral_q = 0;      ///< V, q axis
-  double energy_input = 0;    ///< J, ∫(va·ia + vb·ib) dt since the start
-  double energy_copper = 0;   ///< J, ∫R·(ia² + ib²) dt
+  double started = 0;            ///< 0 until the drive has been anchored to a rotor angle
+  double theta = 0;              ///< rad, rotor angle at the state's time
+  double theta_cmd = 0;          ///< rad, commanded angle at the state's time
+  double omega_cmd = 0;          ///< rad/s, commanded speed over the last step
+  double current_a = 0;          ///< A
+  double current_b = 0;          ///< A
+  double voltage_a = 0;          ///< V, applied now (held)
+  double voltage_b = 0;          ///< V
+  double pending_a = 0;          ///< V, computed at the last tick, applied at that tick + D
+  double pending_b = 0;          ///< V
+  double pending = 0;            ///< 1 while pending_a/b wait for their apply time
+  double next_tick = 0;          ///< k of the next interrupt, at k·T
+  double integral_d = 0;         ///< V, PI integrator s, d axis
+  double integral_q = 0;         ///< V, q axis
+  double energy_input = 0;       ///< J, ∫(va·ia + vb·ib) dt since the start
+  double energy_copper = 0;      ///< J, ∫R·(ia² + ib²) dt
   double energy_mechanical = 0;  ///< J, ∫τm·ω dt
 
   PhaseVector current() const { return {current_a, current_b}; }
   PhaseVector voltage() const { return {voltage_a, voltage_b}; }
 };
-static_assert(std::is_trivially_copyable_v<DriveState> &&
-              sizeof(DriveState) % sizeof(double) == 0);
+static_assert(std::is_trivially_copyable_v<DriveState> && sizeof(DriveState) % sizeof(double) == 0);
 inline constexpr int kDriveStateSize = sizeof(DriveState) / sizeof(double);
 
 /// The state from / to kDriveStateSize doubles (a simulator's state array).

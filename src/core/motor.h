@@ -1,7 +1,7 @@
 // The two-phase stepper motor of SPEC §1: electrical angle, back-EMF, torque, detent, Park frame.
 //
-// Phase quantities are carried as one complex number, a + j·b ("phase vector"): ia + j·ib, va + j·vb.
-// With e^{jx} = cos x + j·sin x the equations of S-2..S-4 and S-9/S-10 become one-liners:
+// Phase quantities are carried as one complex number, a + j·b ("phase vector"): ia + j·ib, va +
+// j·vb. With e^{jx} = cos x + j·sin x the equations of S-2..S-4 and S-9/S-10 become one-liners:
 //   back-EMF   ea + j·eb = j·Km·ω·e^{jx}                        S-2
 //   torque     τm = Km·Im(e^{−jx}·i)                              S-4
 //   Park       id + j·iq = e^{−jψ}·i,   i = e^{jψ}·(id + j·iq)     S-9, S-10

@@ -1,9 +1,9 @@
 #include "core/motor_params.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 namespace mjstepper {
 namespace {

@@ -8,24 +8,24 @@ namespace mjstepper {
 
 /// One detent (cogging) harmonic of S-5:  τdet,h = −Kdh·sin(h·x + φh),  x = Nr·θ.
 struct DetentHarmonic {
-  int order = 1;          ///< h, multiple of the electrical angle; >= 1
-  double amplitude = 0;   ///< Kdh, N·m; >= 0
-  double phase = 0;       ///< φh, rad
+  int order = 1;         ///< h, multiple of the electrical angle; >= 1
+  double amplitude = 0;  ///< Kdh, N·m; >= 0
+  double phase = 0;      ///< φh, rad
 };
 
-/// The electrical and magnetic constants of S-1..S-8. Mechanical constants (rotor inertia J, viscous
-/// damping B, static friction Fs) belong to the MuJoCo model (actuator armature, damping, joint
-/// frictionloss); they are carried here only as the preset's documented values.
+/// The electrical and magnetic constants of S-1..S-8. Mechanical constants (rotor inertia J,
+/// viscous damping B, static friction Fs) belong to the MuJoCo model (actuator armature, damping,
+/// joint frictionloss); they are carried here only as the preset's documented values.
 struct MotorParams {
-  int rotor_teeth = 50;              ///< Nr (Tsui: "pole pairs"); electrical angle x = Nr·θ, S-1
-  double resistance = 0.9;           ///< R, Ω per phase; > 0
-  double inductance = 2.2e-3;        ///< L, H per phase; > 0
-  double torque_constant = 0.3;      ///< Km, N·m/A = V·s/rad; > 0
+  int rotor_teeth = 50;          ///< Nr (Tsui: "pole pairs"); electrical angle x = Nr·θ, S-1
+  double resistance = 0.9;       ///< R, Ω per phase; > 0
+  double inductance = 2.2e-3;    ///< L, H per phase; > 0
+  double torque_constant = 0.3;  ///< Km, N·m/A = V·s/rad; > 0
   std::vector<DetentHarmonic> detent;  ///< S-5, any list of harmonics
   // Preset values for the MuJoCo model; not used by the drive.
-  double rotor_inertia = 0.36e-4;    ///< J, kg·m² (actuator armature)
-  double viscous_damping = 1e-3;     ///< B, N·m·s/rad (actuator or joint damping)
-  double static_friction = 0.0;      ///< Fs, N·m (joint frictionloss)
+  double rotor_inertia = 0.36e-4;  ///< J, kg·m² (actuator armature)
+  double viscous_damping = 1e-3;   ///< B, N·m·s/rad (actuator or joint damping)
+  double static_friction = 0.0;    ///< Fs, N·m (joint frictionloss)
 };
 
 /// Throws std::invalid_argument naming the field, its value and the rule when a value is out of

@@ -11,9 +11,9 @@ Preset Tsui2009() {
   p.name = "tsui2009";
   p.description = "hybrid 1.8 deg, 3 A, 1.27 N·m (Tsui, Cheung, Yuen 2009)";
   p.motor.rotor_teeth = 50;
-  p.motor.resistance = 0.9;        // Ω
-  p.motor.inductance = 2.2e-3;     // H
-  p.motor.torque_constant = 0.3;   // N·m/A
+  p.motor.resistance = 0.9;       // Ω
+  p.motor.inductance = 2.2e-3;    // H
+  p.motor.torque_constant = 0.3;  // N·m/A
   p.motor.detent = {{.order = 4, .amplitude = 0.006, .phase = 0.0},
                     {.order = 2, .amplitude = 0.014, .phase = std::numbers::pi},
                     {.order = 1, .amplitude = 0.011, .phase = std::numbers::pi / 2}};
@@ -29,7 +29,8 @@ Preset Tsui2009() {
 Preset Kim2016() {
   Preset p;
   p.name = "kim2016";
-  p.description = "PM stepper, PK268-02B class, 2 A, about 1.35 N·m (Kim et al. 2016, reconstructed)";
+  p.description =
+      "PM stepper, PK268-02B class, 2 A, about 1.35 N·m (Kim et al. 2016, reconstructed)";
   p.motor.rotor_teeth = 50;
   p.motor.resistance = 2.3;
   p.motor.inductance = 9.0e-3;

@@ -15,8 +15,8 @@ struct Preset {
   std::string name;
   std::string description;
   MotorParams motor;
-  double rated_current = 0;   ///< A, datasheet rated phase current
-  int encoder_counts = 0;     ///< counts per revolution of the paper's encoder (S-16)
+  double rated_current = 0;  ///< A, datasheet rated phase current
+  int encoder_counts = 0;    ///< counts per revolution of the paper's encoder (S-16)
 };
 
 /// `tsui2009`, `kim2016`, `bodson1993`; std::nullopt for any other name.

@@ -25,10 +25,10 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
 }
 
 std::array<double, kNumSignals> SignalValues(const DriveSignals& s, const DriveState& state) {
-  return {s.current_a,     s.current_b,        s.voltage_a,   s.voltage_b,
-          s.current_d,     s.current_q,        s.theta_cmd,   s.omega_cmd,
-          s.torque_em,     s.torque_detent,    s.torque_total, s.load_angle,
-          s.lost_steps,    state.energy_input, state.energy_copper, state.energy_mechanical};
+  return {s.current_a,  s.current_b,        s.voltage_a,         s.voltage_b,
+          s.current_d,  s.current_q,        s.theta_cmd,         s.omega_cmd,
+          s.torque_em,  s.torque_detent,    s.torque_total,      s.load_angle,
+          s.lost_steps, state.energy_input, state.energy_copper, state.energy_mechanical};
 }
 
 }  // namespace mjstepper

@@ -17,9 +17,23 @@ struct SignalInfo {
 
 /// Index of each signal in SignalTable and SignalValues.
 enum SignalIndex : int {
-  kCurrentA, kCurrentB, kVoltageA, kVoltageB, kCurrentD, kCurrentQ, kThetaCmd, kOmegaCmd,
-  kTorqueEm, kTorqueDetent, kTorqueTotal, kLoadAngle, kLostSteps, kEnergyInput, kEnergyCopper,
-  kEnergyMechanical, kNumSignals
+  kCurrentA,
+  kCurrentB,
+  kVoltageA,
+  kVoltageB,
+  kCurrentD,
+  kCurrentQ,
+  kThetaCmd,
+  kOmegaCmd,
+  kTorqueEm,
+  kTorqueDetent,
+  kTorqueTotal,
+  kLoadAngle,
+  kLostSteps,
+  kEnergyInput,
+  kEnergyCopper,
+  kEnergyMechanical,
+  kNumSignals
 };
 
 /// Name, unit and meaning of each signal, in output order.

@@ -39,24 +39,24 @@ IntervalEnergy WindingInterval::Energy(double h) const {
   const PhaseVector A = steady_, B = emf_, C = transient_;
   const PhaseVector jw(0, electrical_speed_);
   const double a = decay_;
-  const PhaseVector e_jw = IntegralOfExp(jw, h);           // ∫e^{jΩt}
-  const PhaseVector e_a = IntegralOfExp(-a, h);            // ∫e^{−at}
-  const PhaseVector e_2a = IntegralOfExp(-2 * a, h);       // ∫e^{−2at}
-  const PhaseVector e_jw_a = IntegralOfExp(jw - a, h);     // ∫e^{(jΩ−a)t}
-  const PhaseVector e_mjw_a = IntegralOfExp(-jw - a, h);   // ∫e^{−(jΩ+a)t}
+  const PhaseVector e_jw = IntegralOfExp(jw, h);          // ∫e^{jΩt}
+  const PhaseVector e_a = IntegralOfExp(-a, h);           // ∫e^{−at}
+  const PhaseVector e_2a = IntegralOfExp(-2 * a, h);      // ∫e^{−2at}
+  const PhaseVector e_jw_a = IntegralOfExp(jw - a, h);    // ∫e^{(jΩ−a)t}
+  const PhaseVector e_mjw_a = IntegralOfExp(-jw - a, h);  // ∫e^{−(jΩ+a)t}
   IntervalEnergy e;
   // input: ∫Re(conj(v)·i)
   e.input = (std::conj(voltage_) * (A * h + B * e_jw + C * e_a)).real();
   // copper: R·∫|i|², |i|² expanded into its nine products
-  const double norm_integral =
-      std::norm(A) * h + std::norm(B) * h + std::norm(C) * e_2a.real() +
-      2 * (A * std::conj(B) * std::conj(e_jw)).real() + 2 * (A * std::conj(C)).real() * e_a.real() +
-      2 * (B * std::conj(C) * e_jw_a).real();
+  const double norm_integral = std::norm(A) * h + std::norm(B) * h + std::norm(C) * e_2a.real() +
+                               2 * (A * std::conj(B) * std::conj(e_jw)).real() +
+                               2 * (A * std::conj(C)).real() * e_a.real() +
+                               2 * (B * std::conj(C) * e_jw_a).real();
   e.copper = p_.resistance * norm_integral;
   // mechanical: ∫τm·ω = Km·ω·∫Im(e^{−jx(t)}·i(t)), e^{−jx(t)} = e^{−jx0}·e^{−jΩt}   (S-4)
   const PhaseVector back = UnitPhasor(-ElectricalAngle(p_, theta0_));
-  e.mechanical = p_.torque_constant * omega_ *
-                 (back * (A * std::conj(e_jw) + B * h + C * e_mjw_a)).imag();
+  e.mechanical =
+      p_.torque_constant * omega_ * (back * (A * std::conj(e_jw) + B * h + C * e_mjw_a)).imag();
   return e;
 }
 

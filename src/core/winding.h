@@ -35,14 +35,14 @@ class WindingInterval {
  private:
   // i(t) = steady_ + emf_·e^{jΩt} + transient_·e^{−a·t},  Ω = Nr·ω,  a = R/L.
   const MotorParams& p_;
-  PhaseVector voltage_;    // V
-  double theta0_;          // rad
-  double omega_;           // rad/s
-  double decay_;           // a = R/L, 1/s
+  PhaseVector voltage_;      // V
+  double theta0_;            // rad
+  double omega_;             // rad/s
+  double decay_;             // a = R/L, 1/s
   double electrical_speed_;  // Ω = Nr·ω, rad/s
-  PhaseVector steady_;     // v/R, A
-  PhaseVector emf_;        // P·e^{jx0}, A
-  PhaseVector transient_;  // i0 − v/R − P·e^{jx0}, A
+  PhaseVector steady_;       // v/R, A
+  PhaseVector emf_;          // P·e^{jx0}, A
+  PhaseVector transient_;    // i0 − v/R − P·e^{jx0}, A
 };
 
 /// Reference solver for tests: classical RK4 on S-3 with steps of at most max_step.

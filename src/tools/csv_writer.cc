@@ -1,11 +1,11 @@
 #include "csv_writer.h"
 
+#include <fmt/format.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <iterator>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 namespace mjstepper::tools {
 

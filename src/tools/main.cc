@@ -1,13 +1,13 @@
 // The mjstepper command: run a model with command profiles and log it, or describe its steppers.
+#include <fmt/format.h>
+#include <fmt/ostream.h>
+
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <iostream>
 #include <map>
 #include <string>
 #include <vector>
-
-#include <CLI/CLI.hpp>
-#include <fmt/format.h>
-#include <fmt/ostream.h>
 
 #include "core/units.h"
 #include "runner.h"
@@ -18,9 +18,12 @@ namespace {
 
 const char* DriveName(DriveKind k) {
   switch (k) {
-    case DriveKind::kVoltageMicrostep: return "voltage_microstep";
-    case DriveKind::kCurrentMicrostep: return "current_microstep";
-    case DriveKind::kIdealCurrent: return "ideal_current";
+    case DriveKind::kVoltageMicrostep:
+      return "voltage_microstep";
+    case DriveKind::kCurrentMicrostep:
+      return "current_microstep";
+    case DriveKind::kIdealCurrent:
+      return "ideal_current";
   }
   return "?";
 }
@@ -39,16 +42,17 @@ int Info(const std::string& path) {
     const Drive drive(s.config);
     const MotorParams& p = s.config.motor;
     const double inertia = ReflectedInertia(m, s.actuator);
-    const double stiffness = drive.HoldingStiffness();            // N·m/rad, T' = Nr·Km·I
-    const double omega_n = std::sqrt(stiffness / inertia);        // rad/s, T(1)
-    const double fn = omega_n / kTwoPi;                           // Hz
+    const double stiffness = drive.HoldingStiffness();      // N·m/rad, T' = Nr·Km·I
+    const double omega_n = std::sqrt(stiffness / inertia);  // rad/s, T(1)
+    const double fn = omega_n / kTwoPi;                     // Hz
     fmt::print(
         "  {}: drive {}, input {}\n"
         "    Nr {}, R {:g} Ω, L {:g} H, Km {:g} N·m/A, {} detent harmonic(s)\n"
         "    rest current {:g} A, holding stiffness T' = Nr·Km·I = {:.4g} N·m/rad\n"
         "    rotor-side inertia J = {:.4g} kg·m² → fn = (1/2π)·√(T'/J) = {:.2f} Hz (S-1..S-7)\n",
         s.name, DriveName(s.config.kind),
-        s.config.input == InputMode::kPosition ? "position (ctrl in rad)" : "velocity (ctrl in rad/s)",
+        s.config.input == InputMode::kPosition ? "position (ctrl in rad)"
+                                               : "velocity (ctrl in rad/s)",
         p.rotor_teeth, p.resistance, p.inductance, p.torque_constant, p.detent.size(),
         drive.RestCurrentMagnitude(), stiffness, inertia, fn);
     for (const DetentHarmonic& dh : p.detent) {
@@ -83,8 +87,7 @@ int main(int argc, char** argv) {
                       "constant(X), ramp(A,B,T), trapezoid(V,Ta,Tc,Td); units rpm, rad/s, rad, "
                       "deg, s");
   run_cmd->add_option("--log", run.log, "CSV log (written to FILE.tmp, then renamed)");
-  run_cmd->add_option("--log-every", run.log_every, "log one row every N steps")
-      ->default_val(1);
+  run_cmd->add_option("--log-every", run.log_every, "log one row every N steps")->default_val(1);
   bool quiet = false;
   run_cmd->add_flag("--quiet", quiet, "no progress line");
 

@@ -1,13 +1,13 @@
 #include "runner.h"
 
+#include <fmt/format.h>
+#include <fmt/ostream.h>
+
 #include <chrono>
 #include <cmath>
 #include <optional>
 #include <ostream>
 #include <stdexcept>
-
-#include <fmt/format.h>
-#include <fmt/ostream.h>
 
 #include "core/command_profile.h"
 #include "core/signals.h"
@@ -35,8 +35,8 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   std::vector<double> theta_start;
   for (const StepperActuator& s : sm.steppers) {
     const auto it = options.ctrl.find(s.name);
-    profiles.push_back(CommandProfile::Parse(it != options.ctrl.end() ? it->second
-                                                                      : "constant(0rad/s)"));
+    profiles.push_back(
+        CommandProfile::Parse(it != options.ctrl.end() ? it->second : "constant(0rad/s)"));
     theta_start.push_back(d->actuator_length[s.outadr]);
   }
   for (const auto& [name, text] : options.ctrl) {
@@ -111,7 +111,8 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   if (csv) csv->Commit();
   result.steps = steps;
   result.sim_time = d->time;
-  result.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.wall_time =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (size_t i = 0; i < sm.steppers.size(); ++i) {
     result.steppers[i].name = sm.steppers[i].name;
     result.steppers[i].profile = profiles[i].text();

@@ -10,28 +10,28 @@
 namespace mjstepper::tools {
 
 struct RunOptions {
-  std::string model;                         ///< MJCF path
-  double duration = 1.0;                     ///< s of simulated time
-  std::map<std::string, std::string> ctrl;   ///< actuator name → profile text
-  std::string log;                           ///< CSV path; empty for none
-  int log_every = 1;                         ///< log one row every N steps
-  bool progress = true;                      ///< progress line on stderr for runs over ~2 s
+  std::string model;                        ///< MJCF path
+  double duration = 1.0;                    ///< s of simulated time
+  std::map<std::string, std::string> ctrl;  ///< actuator name → profile text
+  std::string log;                          ///< CSV path; empty for none
+  int log_every = 1;                        ///< log one row every N steps
+  bool progress = true;                     ///< progress line on stderr for runs over ~2 s
 };
 
 struct StepperSummary {
   std::string name;
   std::string profile;
-  double final_speed = 0;           ///< rad/s
-  double rms_velocity_error = 0;    ///< rad/s, ω − ωcmd over the run
-  double max_velocity_error = 0;    ///< rad/s, max |ω − ωcmd|
-  double max_load_angle = 0;        ///< electrical rad, max |δ|
-  double lost_steps = 0;            ///< full steps slipped at the end
+  double final_speed = 0;         ///< rad/s
+  double rms_velocity_error = 0;  ///< rad/s, ω − ωcmd over the run
+  double max_velocity_error = 0;  ///< rad/s, max |ω − ωcmd|
+  double max_load_angle = 0;      ///< electrical rad, max |δ|
+  double lost_steps = 0;          ///< full steps slipped at the end
 };
 
 struct RunResult {
   long steps = 0;
-  double sim_time = 0;      ///< s
-  double wall_time = 0;     ///< s
+  double sim_time = 0;   ///< s
+  double wall_time = 0;  ///< s
   std::vector<StepperSummary> steppers;
 };
 

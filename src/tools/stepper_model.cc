@@ -1,11 +1,11 @@
 #include "stepper_model.h"
 
+#include <fmt/format.h>
+
 #include <cstdlib>
 #include <stdexcept>
 #include <variant>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "config.h"
 #include "stepper.h"
@@ -52,7 +52,8 @@ void LoadPluginLibrary() {
 StepperModel LoadStepperModel(const std::string& path) {
   LoadPluginLibrary();
   char error[1024] = "";
-  std::unique_ptr<mjSpec, SpecDeleter> spec(mj_parseXML(path.c_str(), nullptr, error, sizeof(error)));
+  std::unique_ptr<mjSpec, SpecDeleter> spec(
+      mj_parseXML(path.c_str(), nullptr, error, sizeof(error)));
   if (!spec) throw std::runtime_error(fmt::format("{}: {}", path, error));
   ModelPtr model = Compile(spec.get());
 
@@ -96,7 +97,9 @@ StepperModel LoadStepperModel(const std::string& path) {
     if (instance < 0 || model->plugin[instance] != StepperSlot()) continue;
     const int a = model->sensor_objid[s];
     const int drive_instance = model->actuator_plugin[a];
-    auto read = [&](const char* key) { return mj_getPluginConfig(model.get(), drive_instance, key); };
+    auto read = [&](const char* key) {
+      return mj_getPluginConfig(model.get(), drive_instance, key);
+    };
     auto parsed = plugin::ParseConfig(read);
     if (auto* e = std::get_if<std::string>(&parsed)) throw std::runtime_error(*e);
     const char* name = mj_id2name(model.get(), mjOBJ_ACTUATOR, a);

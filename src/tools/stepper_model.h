@@ -1,24 +1,24 @@
 // Loads an MJCF model for the tools: loads the plugin library, adds a signal sensor (a
-// mjstepper.stepper probe) to every stepper actuator that has none, compiles, and lists the steppers.
-// Only MuJoCo's public API and the plugin's documented config and sensor layout are used.
+// mjstepper.stepper probe) to every stepper actuator that has none, compiles, and lists the
+// steppers. Only MuJoCo's public API and the plugin's documented config and sensor layout are used.
 #ifndef MJSTEPPER_TOOLS_STEPPER_MODEL_H_
 #define MJSTEPPER_TOOLS_STEPPER_MODEL_H_
+
+#include <mujoco/mujoco.h>
 
 #include <memory>
 #include <string>
 #include <vector>
-
-#include <mujoco/mujoco.h>
 
 #include "core/drive.h"
 
 namespace mjstepper::tools {
 
 struct StepperActuator {
-  int actuator = -1;     ///< actuator id
-  std::string name;      ///< actuator name
-  int sensor_adr = -1;   ///< first of kNumSignals values in sensordata
-  DriveConfig config;    ///< parsed from the instance's <config> with the plugin's own parser
+  int actuator = -1;    ///< actuator id
+  std::string name;     ///< actuator name
+  int sensor_adr = -1;  ///< first of kNumSignals values in sensordata
+  DriveConfig config;   ///< parsed from the instance's <config> with the plugin's own parser
   int ctrladr = 0;
   int outadr = 0;
 };
@@ -44,7 +44,8 @@ void LoadPluginLibrary();
 /// Throws std::runtime_error with MuJoCo's own message on any load or compile error.
 StepperModel LoadStepperModel(const std::string& path);
 
-/// Rotor-side inertia seen by the actuator at qpos0, kg·m²: M[dof, dof] / gear² (armature included).
+/// Rotor-side inertia seen by the actuator at qpos0, kg·m²: M[dof, dof] / gear² (armature
+/// included).
 double ReflectedInertia(const mjModel* m, int actuator);
 
 }  // namespace mjstepper::tools

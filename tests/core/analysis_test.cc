@@ -1,10 +1,10 @@
 #include "core/analysis.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <numbers>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 namespace mjstepper {
 namespace {

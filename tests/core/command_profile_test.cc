@@ -1,10 +1,10 @@
 #include "core/command_profile.h"
 
-#include <cmath>
-#include <stdexcept>
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
 
 #include "core/units.h"
 

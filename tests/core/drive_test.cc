@@ -2,14 +2,14 @@
 // paper targets that need only the electrical side: H6, H8, H14's loop on a prescribed rotor.
 #include "core/drive.h"
 
-#include <cmath>
-#include <cstring>
-#include <numbers>
-#include <functional>
-#include <vector>
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <numbers>
+#include <vector>
 
 #include "core/analysis.h"
 #include "core/presets.h"
@@ -51,8 +51,8 @@ TEST(Drive, RestStateHasNoTransient) {
     const double theta = 0.004;  // rad, anywhere
     DriveState s = drive.Rest(0.0, theta, theta);
     const DriveState start = s;
-    RunPrescribed(drive, &s, 0.01, 5e-5, [&](double) { return theta; },
-                  [&](double) { return theta; });
+    RunPrescribed(
+        drive, &s, 0.01, 5e-5, [&](double) { return theta; }, [&](double) { return theta; });
     // Round-off of 200 intervals on currents of order 1 A.
     EXPECT_NEAR(s.current_a, start.current_a, 1e-12);
     EXPECT_NEAR(s.current_b, start.current_b, 1e-12);
@@ -69,8 +69,8 @@ TEST(Drive, VoltageMicrostepSettlesToVmaxOverR) {
   const Drive drive(c);
   DriveState s = drive.Rest(0.0, 0.0, 0.0);
   const double theta_cmd = 0.01;  // rad, half an electrical turn
-  RunPrescribed(drive, &s, 0.05, 5e-5, [](double) { return 0.0; },
-                [&](double) { return theta_cmd; });
+  RunPrescribed(
+      drive, &s, 0.05, 5e-5, [](double) { return 0.0; }, [&](double) { return theta_cmd; });
   const PhaseVector expected = 1.71 / 0.9 * UnitPhasor(50 * theta_cmd);
   EXPECT_NEAR(std::abs(s.current() - expected), 0.0, 1e-7);
 }
@@ -82,8 +82,8 @@ TEST(Drive, CurrentLoopSettlesToHoldCurrent) {
   const Drive drive(TsuiConfig(DriveKind::kCurrentMicrostep, InputMode::kPosition));
   DriveState s = drive.Rest(0.0, 0.0, 0.0);
   const double theta_cmd = 0.0123;
-  RunPrescribed(drive, &s, 0.5, 5e-5, [](double) { return 0.0; },
-                [&](double) { return theta_cmd; });
+  RunPrescribed(
+      drive, &s, 0.5, 5e-5, [](double) { return 0.0; }, [&](double) { return theta_cmd; });
   const DriveSignals sig = drive.Signals(s, 0.0);
   EXPECT_NEAR(sig.current_d, 1.9, 1e-3);
   EXPECT_NEAR(sig.current_q, 0.0, 1e-3);
@@ -96,11 +96,12 @@ TEST(Drive, CurrentLoopSettlesToHoldCurrent) {
 TEST(Drive, VoltageAppliesAfterComputeDelayAndHolds) {
   const Drive drive(TsuiConfig(DriveKind::kVoltageMicrostep, InputMode::kPosition));
   DriveState s = drive.Rest(0.0, 0.0, 0.0);
-  const double jump = 0.005;  // rad: electrical angle 0.25 rad
+  const double jump = 0.005;                  // rad: electrical angle 0.25 rad
   std::vector<std::pair<double, double>> vb;  // (t, vb)
-  RunPrescribed(drive, &s, 1.2e-3, 5e-6, [](double) { return 0.0; },
-                [&](double t) { return t >= 1e-3 - 1e-12 ? jump : 0.0; },
-                [&](double t, const DriveState& st) { vb.emplace_back(t, st.voltage_b); });
+  RunPrescribed(
+      drive, &s, 1.2e-3, 5e-6, [](double) { return 0.0; },
+      [&](double t) { return t >= 1e-3 - 1e-12 ? jump : 0.0; },
+      [&](double t, const DriveState& st) { vb.emplace_back(t, st.voltage_b); });
   const double v_new = 24.0 * std::sin(50 * jump);
   for (const auto& [t, v] : vb) {
     if (t < 1.025e-3 + 1e-9) {
@@ -125,11 +126,12 @@ TEST(Drive, TicksAreIndependentOfTheSimulationStep) {
       const double h = steps[r];
       const long per_common = std::lround(1.3e-3 / h);
       long k = 0;
-      RunPrescribed(drive, &s, 13e-3, h, [&](double t) { return omega * t - 1e-3; },
-                    [&](double) { return omega; },
-                    [&](double, const DriveState& st) {
-                      if (++k % per_common == 0) at_common[r].push_back(st.current());
-                    });
+      RunPrescribed(
+          drive, &s, 13e-3, h, [&](double t) { return omega * t - 1e-3; },
+          [&](double) { return omega; },
+          [&](double, const DriveState& st) {
+            if (++k % per_common == 0) at_common[r].push_back(st.current());
+          });
     }
     ASSERT_EQ(at_common[0].size(), 10u);
     for (int r = 1; r < 3; ++r) {
@@ -152,11 +154,11 @@ TEST(Drive, BridgesClampAndIntegratorDoesNotWindUp) {
   DriveState s = drive.Rest(0.0, 0.0, omega);
   const double integral0 = std::hypot(s.integral_d, s.integral_q);
   double max_v = 0;
-  RunPrescribed(drive, &s, 0.05, 5e-5, [&](double t) { return omega * t; },
-                [&](double) { return omega; },
-                [&](double, const DriveState& st) {
-                  max_v = std::max({max_v, std::abs(st.voltage_a), std::abs(st.voltage_b)});
-                });
+  RunPrescribed(
+      drive, &s, 0.05, 5e-5, [&](double t) { return omega * t; }, [&](double) { return omega; },
+      [&](double, const DriveState& st) {
+        max_v = std::max({max_v, std::abs(st.voltage_a), std::abs(st.voltage_b)});
+      });
   EXPECT_LE(max_v, 12.0);
   EXPECT_GT(max_v, 11.9);  // it did saturate
   // Without anti-windup the integrator would grow by Ki·|e| ≈ 0.01 V per tick for 1000 ticks.
@@ -203,7 +205,8 @@ TEST(Drive, H8_CurrentsMatchRk4Reference) {
       reference.Advance(&b, k * h, (k + 1) * h, theta((k + 1) * h), omega);
       max_error = std::max(max_error, std::abs(a.current() - b.current()));
     }
-    EXPECT_LT(max_error, 1e-3 * 3.0) << (kind == DriveKind::kVoltageMicrostep ? "voltage" : "current");
+    EXPECT_LT(max_error, 1e-3 * 3.0)
+        << (kind == DriveKind::kVoltageMicrostep ? "voltage" : "current");
   }
 }
 
@@ -215,14 +218,15 @@ TEST(Drive, H14_PiLoopFundamentalOnPrescribedRotor) {
   const double omega = RpmToRadPerSec(240);
   DriveState s = drive.Rest(0.0, 0.0, omega);
   std::vector<double> t, ia, reference;
-  RunPrescribed(drive, &s, 0.6, 5e-5, [&](double tt) { return omega * tt - 0.002; },
-                [&](double) { return omega; },
-                [&](double tt, const DriveState& st) {
-                  if (tt < 0.5) return;
-                  t.push_back(tt);
-                  ia.push_back(st.current_a);
-                  reference.push_back(std::cos(50 * st.theta_cmd));
-                });
+  RunPrescribed(
+      drive, &s, 0.6, 5e-5, [&](double tt) { return omega * tt - 0.002; },
+      [&](double) { return omega; },
+      [&](double tt, const DriveState& st) {
+        if (tt < 0.5) return;
+        t.push_back(tt);
+        ia.push_back(st.current_a);
+        reference.push_back(std::cos(50 * st.theta_cmd));
+      });
   const Tone got = FitTone(t, ia, 200.0), want = FitTone(t, reference, 200.0);
   EXPECT_NEAR(got.amplitude, 1.9, 0.05 * 1.9);
   const double lag_deg = std::remainder(want.phase - got.phase, kTwoPi) * 180 / std::numbers::pi;

@@ -1,11 +1,11 @@
 // The motor equations of SPEC §1 against their closed forms: H1, H2, H5.
 #include "core/motor.h"
 
-#include <cmath>
-#include <numbers>
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
 
 #include "core/analysis.h"
 #include "core/presets.h"
@@ -40,8 +40,9 @@ TEST(Motor, H2_StaticStiffness) {
   const MotorParams p = Tsui();
   const PhaseVector hold(1.9, 0.0);
   const double dtheta = 1e-6;
-  const double stiffness = -(ElectromagneticTorque(p, dtheta, hold) -
-                             ElectromagneticTorque(p, -dtheta, hold)) / (2 * dtheta);
+  const double stiffness =
+      -(ElectromagneticTorque(p, dtheta, hold) - ElectromagneticTorque(p, -dtheta, hold)) /
+      (2 * dtheta);
   EXPECT_NEAR(stiffness, 28.5, 28.5 * 1e-8);
 }
 

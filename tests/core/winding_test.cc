@@ -1,9 +1,9 @@
 // The exact winding solution (winding.h) against closed forms, RK4 and explicit Euler.
 #include "core/winding.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "core/presets.h"
 #include "core/units.h"
@@ -19,8 +19,8 @@ TEST(Winding, ExactAtRestMatchesClosedFormAndBeatsEuler) {
   const MotorParams p = Tsui();
   const PhaseVector v(10.0, -4.0), i0(0.5, 0.2);
   const double h = 50e-6;
-  const PhaseVector exact = v / p.resistance + (i0 - v / p.resistance) *
-                                                   std::exp(-p.resistance * h / p.inductance);
+  const PhaseVector exact =
+      v / p.resistance + (i0 - v / p.resistance) * std::exp(-p.resistance * h / p.inductance);
   const PhaseVector got = WindingInterval(p, i0, v, 0.3, 0.0).CurrentAt(h);
   EXPECT_NEAR(std::abs(got - exact), 0.0, 1e-12 * std::abs(exact));
   const PhaseVector euler = i0 + h * (v - p.resistance * i0) / p.inductance;
@@ -47,14 +47,14 @@ TEST(Winding, StableForAnyIntervalLength) {
   const double omega = RpmToRadPerSec(1200), h = 10.0;
   const PhaseVector v(24.0, 0.0), i0(3.0, 3.0);
   const PhaseVector got = WindingInterval(p, i0, v, 0.0, omega).CurrentAt(h);
-  const PhaseVector emf_gain =
-      PhaseVector(0, -p.torque_constant * omega) /
-      PhaseVector(p.resistance, p.rotor_teeth * omega * p.inductance);
+  const PhaseVector emf_gain = PhaseVector(0, -p.torque_constant * omega) /
+                               PhaseVector(p.resistance, p.rotor_teeth * omega * p.inductance);
   const PhaseVector steady = v / p.resistance + emf_gain * UnitPhasor(p.rotor_teeth * omega * h);
   ASSERT_TRUE(std::isfinite(got.real()) && std::isfinite(got.imag()));
   // The phase x(h) = 6e4 rad carries round-off of about 1e-11 rad; the bound allows 1e-9 A.
   EXPECT_NEAR(std::abs(got - steady), 0.0, 1e-9);
-  const PhaseVector euler = i0 + h * (v - p.resistance * i0 - BackEmf(p, 0.0, omega)) / p.inductance;
+  const PhaseVector euler =
+      i0 + h * (v - p.resistance * i0 - BackEmf(p, 0.0, omega)) / p.inductance;
   EXPECT_GT(std::abs(euler), 1e3);
 }
 

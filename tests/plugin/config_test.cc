@@ -1,14 +1,14 @@
 // The MJCF config parser (plugin/config.h): strict numbers, presets, overrides, docs.
 #include "config.h"
 
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
 #include <variant>
-
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
 
 namespace mjstepper::plugin {
 namespace {
@@ -51,9 +51,11 @@ TEST(Config, DefaultsAreTsuiCurrentMicrostepping) {
 }
 
 TEST(Config, PresetValuesCanBeOverridden) {
-  const auto parsed = ParseMap({{"motor", "kim2016"}, {"resistance", "2.0"},
+  const auto parsed = ParseMap({{"motor", "kim2016"},
+                                {"resistance", "2.0"},
                                 {"detent", "4 0.01 0; 1 0.002 1.5708"},
-                                {"drive", "voltage_microstep"}, {"input", "velocity"}});
+                                {"drive", "voltage_microstep"},
+                                {"input", "velocity"}});
   ASSERT_TRUE(std::holds_alternative<DriveConfig>(parsed)) << std::get<std::string>(parsed);
   const DriveConfig& c = std::get<DriveConfig>(parsed);
   EXPECT_EQ(c.motor.torque_constant, 0.48);  // from the preset

@@ -1,17 +1,16 @@
 // mjstepper.stepper on real MuJoCo: the plugin checklist (STYLE.md §5, after MuJoCo's pid_test).
-#include "stepper.h"
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
 #include <thread>
 #include <vector>
 
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
-
 #include "core/drive.h"
 #include "core/signals.h"
 #include "core/units.h"
+#include "stepper.h"
 #include "test_model.h"
 
 namespace mjstepper::testing {
@@ -57,7 +56,9 @@ TEST(StepperPlugin, LoadsFromMjcf) {
 // speed over the last 0.1 s is the command (a synchronous motor: no slip, ±0.5 % for the residual
 // oscillation at the window's ends) and no step is lost.
 TEST(StepperPlugin, RotorFollowsVelocityCommand) {
-  const ModelPtr m = LoadModel(RotorModel(VelocityTsui(), "", R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  const ModelPtr m = LoadModel(RotorModel(
+      VelocityTsui(), "",
+      R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
   ASSERT_TRUE(m);
   const DataPtr d(mj_makeData(m.get()));
   Step(m.get(), d.get(), 4000);  // 0.2 s
@@ -96,7 +97,8 @@ TEST(StepperPlugin, ResetRestoresInitialState) {
 // with a zero speed command the rotor stays put (to the 1e-12 rad of round-off).
 TEST(StepperPlugin, KeyframeStartsDriveAtRestOnTheRotor) {
   std::string xml = RotorModel(VelocityTsui());
-  xml.replace(xml.find("</mujoco>"), 9, R"(<keyframe><key name="k" qpos="0.7"/></keyframe></mujoco>)");
+  xml.replace(xml.find("</mujoco>"), 9,
+              R"(<keyframe><key name="k" qpos="0.7"/></keyframe></mujoco>)");
   const ModelPtr m = LoadModel(xml);
   ASSERT_TRUE(m);
   const DataPtr d(mj_makeData(m.get()));
@@ -190,7 +192,8 @@ TEST(StepperPlugin, OneDataPerThreadMatchesSerial) {
 // Tsui drive, ia = 1.9 A, ib = 0, id = 1.9 A, and torque_total equals actuator_force.
 TEST(StepperPlugin, SignalSensorReportsDriveState) {
   const ModelPtr m = LoadModel(RotorModel(
-      VelocityTsui(), "", R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+      VelocityTsui(), "",
+      R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
   ASSERT_TRUE(m);
   EXPECT_EQ(m->sensor_dim[0], kNumSignals);
   const DataPtr d(mj_makeData(m.get()));
@@ -242,8 +245,7 @@ TEST_P(BadConfigFailsLoad, NamesAttributeAndValue) {
 
 INSTANTIATE_TEST_SUITE_P(
     StepperPlugin, BadConfigFailsLoad,
-    ::testing::Values(BadConfig{"resistance", "-0.9", "> 0"},
-                      BadConfig{"inductance", "0", "> 0"},
+    ::testing::Values(BadConfig{"resistance", "-0.9", "> 0"}, BadConfig{"inductance", "0", "> 0"},
                       BadConfig{"torque_constant", "nan", "not a finite number"},
                       BadConfig{"bus_voltage", "48V", "not a finite number"},
                       BadConfig{"hold_current", "1.9 A", "not a finite number"},
@@ -254,8 +256,7 @@ INSTANTIATE_TEST_SUITE_P(
                       BadConfig{"rotor_teeth", "50.5", "integer"},
                       BadConfig{"detent", "4 0.006", "triplets"},
                       BadConfig{"compute_delay", "50e-6", "< isr_period"},
-                      BadConfig{"voltage_amplitude", "-1", "> 0"},
-                      BadConfig{"ki", "-0.01", ">= 0"},
+                      BadConfig{"voltage_amplitude", "-1", "> 0"}, BadConfig{"ki", "-0.01", ">= 0"},
                       BadConfig{"isr_period", "0", "> 0"}),
     [](const ::testing::TestParamInfo<BadConfig>& info) {
       return std::string(info.param.key) + "_" + std::to_string(info.index);
@@ -272,8 +273,9 @@ TEST(StepperPlugin, UnknownAttributeFailsLoad) {
 TEST(StepperPlugin, SensorNeedsAStepperActuator) {
   std::string error;
   const ModelPtr m = LoadModel(
-      RotorModel(VelocityTsui() + R"(<motor name="plain" joint="j1"/>)", "",
-                 R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="plain"/>)"),
+      RotorModel(
+          VelocityTsui() + R"(<motor name="plain" joint="j1"/>)", "",
+          R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="plain"/>)"),
       &error);
   EXPECT_FALSE(m);
   EXPECT_THAT(error, AllOf(HasSubstr("sensor 's'"), HasSubstr("objtype=\"actuator\"")));

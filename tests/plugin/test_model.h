@@ -2,11 +2,11 @@
 #ifndef MJSTEPPER_TESTS_PLUGIN_TEST_MODEL_H_
 #define MJSTEPPER_TESTS_PLUGIN_TEST_MODEL_H_
 
-#include <memory>
-#include <string>
-
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
+
+#include <memory>
+#include <string>
 
 namespace mjstepper::testing {
 
@@ -26,10 +26,10 @@ inline std::string RotorModel(const std::string& actuators, const std::string& e
                               double timestep = 5e-5, const std::string& joint_attrs = "") {
   std::string bodies;
   for (int j = 1; j <= joints; ++j) {
-    bodies += fmt::format(
-        R"(<body name="r{0}"><joint name="j{0}" type="hinge" axis="0 0 1" {1}/>)"
-        R"(<inertial pos="0 0 0" mass="0.001" diaginertia="1e-9 1e-9 1e-9"/></body>)",
-        j, joint_attrs);
+    bodies +=
+        fmt::format(R"(<body name="r{0}"><joint name="j{0}" type="hinge" axis="0 0 1" {1}/>)"
+                    R"(<inertial pos="0 0 0" mass="0.001" diaginertia="1e-9 1e-9 1e-9"/></body>)",
+                    j, joint_attrs);
   }
   return fmt::format(R"(<mujoco>
   <option timestep="{}" integrator="implicitfast"/>

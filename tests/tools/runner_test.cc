@@ -1,13 +1,13 @@
 // The mjstepper command end to end: run writes a complete CSV with units, info describes steppers.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
-
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
 
 namespace {
 
@@ -32,18 +32,20 @@ Result RunCli(const std::string& args) {
 const std::string kModel = MJSTEPPER_SOURCE_DIR "/models/tsui_rigid.xml";
 
 std::filesystem::path TempDir() {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("mjstepper_test_" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("mjstepper_test_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   return dir;
 }
 
 TEST(Runner, RunWritesCsvWithUnitsAndNoTemporaryFile) {
   const auto csv = TempDir() / "ramp.csv";
-  const Result r = RunCli("run " + kModel + " --duration 0.05 --ctrl 'shaft=ramp(0rpm,200rpm,0.8s)' --log " +
-                          csv.string());
+  const Result r =
+      RunCli("run " + kModel + " --duration 0.05 --ctrl 'shaft=ramp(0rpm,200rpm,0.8s)' --log " +
+             csv.string());
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_THAT(r.output, AllOf(HasSubstr("1000 steps"), HasSubstr("shaft"), HasSubstr("lost steps")));
+  EXPECT_THAT(r.output,
+              AllOf(HasSubstr("1000 steps"), HasSubstr("shaft"), HasSubstr("lost steps")));
   ASSERT_TRUE(std::filesystem::exists(csv));
   EXPECT_FALSE(std::filesystem::exists(csv.string() + ".tmp"));
   std::ifstream in(csv);
@@ -59,8 +61,8 @@ TEST(Runner, RunWritesCsvWithUnitsAndNoTemporaryFile) {
 
 TEST(Runner, BadProfileOrActuatorFailsWithoutOutput) {
   const auto csv = TempDir() / "bad.csv";
-  Result r = RunCli("run " + kModel + " --duration 0.01 --ctrl 'shaft=ramp(0rpm)' --log " +
-                    csv.string());
+  Result r =
+      RunCli("run " + kModel + " --duration 0.01 --ctrl 'shaft=ramp(0rpm)' --log " + csv.string());
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.output, HasSubstr("ramp(0rpm)"));
   r = RunCli("run " + kModel + " --duration 0.01 --ctrl 'axle=constant(10rpm)' --log " +

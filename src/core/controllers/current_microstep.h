@@ -18,10 +18,10 @@
 namespace mjstepper {
 
 struct CurrentMicrostepController {
-  int rotor_teeth = 50;        ///< Nr
-  double hold_current = 1.9;   ///< I_hold, A, T(12)
-  double kp = 7.5;             ///< V/A, T(9)
-  double ki_per_tick = 0.01;   ///< V/A per tick, T(10)
+  int rotor_teeth = 50;       ///< Nr
+  double hold_current = 1.9;  ///< I_hold, A, T(12)
+  double kp = 7.5;            ///< V/A, T(9)
+  double ki_per_tick = 0.01;  ///< V/A per tick, T(10)
 
   /// id* + j·iq* in the commanded frame, T(12).
   PhaseVector Setpoint() const { return {hold_current, 0.0}; }

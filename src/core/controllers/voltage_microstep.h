@@ -11,8 +11,8 @@
 namespace mjstepper {
 
 struct VoltageMicrostepController {
-  int rotor_teeth = 50;            ///< Nr
-  double voltage_amplitude = 24;   ///< Vmax, V
+  int rotor_teeth = 50;           ///< Nr
+  double voltage_amplitude = 24;  ///< Vmax, V
 
   /// The bridge voltage for the tick; stateless.
   BridgeOutput Update(const ControlSample& in, const TwoHBridges& bridges) const {
