@@ -56,7 +56,7 @@ class Reader {
   const AttributeReader& read_;
 };
 
-std::vector<DetentHarmonic> ParseDetent(const std::string& raw) {
+std::vector<DetentHarmonic> ParseDetent(const char* name, const std::string& raw) {
   const std::string text = Trim(raw);
   if (text == "none") return {};
   const char* rule =
@@ -71,19 +71,49 @@ std::vector<DetentHarmonic> ParseDetent(const std::string& raw) {
     std::vector<double> values;
     while (fields >> field) {
       double v = 0;
-      if (!ParseFiniteDouble(field, &v)) throw Bad(kAttrDetent, raw, rule);
+      if (!ParseFiniteDouble(field, &v)) throw Bad(name, raw, rule);
       values.push_back(v);
     }
-    if (values.size() != 3) throw Bad(kAttrDetent, raw, rule);
+    if (values.size() != 3) throw Bad(name, raw, rule);
     if (values[0] < 1 || values[0] != std::floor(values[0]) || values[0] > 1000) {
-      throw Bad(kAttrDetent, raw, "harmonic order must be an integer in [1, 1000]");
+      throw Bad(name, raw, "harmonic order must be an integer in [1, 1000]");
     }
-    if (values[1] < 0) throw Bad(kAttrDetent, raw, "amplitude must be >= 0 (N·m)");
+    if (values[1] < 0) throw Bad(name, raw, "amplitude must be >= 0 (N·m)");
     harmonics.push_back(
         {.order = static_cast<int>(values[0]), .amplitude = values[1], .phase = values[2]});
   }
-  if (harmonics.empty()) throw Bad(kAttrDetent, raw, rule);
+  if (harmonics.empty()) throw Bad(name, raw, rule);
   return harmonics;
+}
+
+// `damping`: "none", "all", or harmonic orders "4 2 1", each of which must be in `estimates`.
+std::vector<DetentHarmonic> SelectDamping(const std::string& raw,
+                                          const std::vector<DetentHarmonic>& estimates) {
+  const std::string text = Trim(raw);
+  if (text == "none") return {};
+  if (text == "all") return estimates;
+  std::vector<DetentHarmonic> selected;
+  std::stringstream fields(text);
+  std::string field;
+  while (fields >> field) {
+    double order = 0;
+    if (!ParseFiniteDouble(field, &order)) {
+      throw Bad(kAttrDamping, raw, "expected none, all, or harmonic orders such as \"4 2 1\"");
+    }
+    bool found = false;
+    for (const DetentHarmonic& h : estimates) {
+      if (h.order == order) {
+        selected.push_back(h);
+        found = true;
+      }
+    }
+    if (!found) {
+      throw Bad(
+          kAttrDamping, raw,
+          fmt::format("harmonic {} is not in damping_detent (nor the motor's detent)", field));
+    }
+  }
+  return selected;
 }
 
 DriveConfig Parse(const AttributeReader& read) {
@@ -101,15 +131,19 @@ DriveConfig Parse(const AttributeReader& read) {
 
   if (const auto drive = r.Raw(kAttrDrive)) {
     const std::string d = Trim(*drive);
-    if (d == "voltage_microstep") {
-      c.kind = DriveKind::kVoltageMicrostep;
-    } else if (d == "current_microstep") {
-      c.kind = DriveKind::kCurrentMicrostep;
-    } else if (d == "ideal_current") {
-      c.kind = DriveKind::kIdealCurrent;
-    } else {
+    bool known = false;
+    for (DriveKind kind :
+         {DriveKind::kVoltageMicrostep, DriveKind::kCurrentMicrostep, DriveKind::kIdealCurrent,
+          DriveKind::kServo, DriveKind::kIdentification}) {
+      if (d == DriveKindName(kind)) {
+        c.kind = kind;
+        known = true;
+      }
+    }
+    if (!known) {
       throw Bad(kAttrDrive, *drive,
-                "unknown drive; known: voltage_microstep, current_microstep, ideal_current");
+                "unknown drive; known: voltage_microstep, current_microstep, ideal_current, servo, "
+                "identification");
     }
   }
   if (const auto input = r.Raw(kAttrInput)) {
@@ -133,7 +167,7 @@ DriveConfig Parse(const AttributeReader& read) {
   r.Number(kAttrResistance, "Ω", "must be > 0", positive, &c.motor.resistance);
   r.Number(kAttrInductance, "H", "must be > 0", positive, &c.motor.inductance);
   r.Number(kAttrTorqueConstant, "N·m/A", "must be > 0", positive, &c.motor.torque_constant);
-  if (const auto detent = r.Raw(kAttrDetent)) c.motor.detent = ParseDetent(*detent);
+  if (const auto detent = r.Raw(kAttrDetent)) c.motor.detent = ParseDetent(kAttrDetent, *detent);
   r.Number(kAttrBusVoltage, "V", "must be > 0", positive, &c.bus_voltage);
   r.Number(kAttrVoltageAmplitude, "V", "must be > 0", positive, &c.voltage_amplitude);
   if (c.kind == DriveKind::kVoltageMicrostep && c.voltage_amplitude > c.bus_voltage) {
@@ -149,6 +183,39 @@ DriveConfig Parse(const AttributeReader& read) {
     throw Bad(kAttrComputeDelay, r.Raw(kAttrComputeDelay).value_or("25e-6"),
               fmt::format("must be < isr_period = {} (s)", c.isr_period));
   }
+  if (const auto stage = r.Raw(kAttrPowerStage)) {
+    const std::string p = Trim(*stage);
+    if (p == "h_bridge") {
+      c.power_stage = PowerStageKind::kTwoHBridges;
+    } else if (p == "svpwm") {
+      c.power_stage = PowerStageKind::kThreeLegSvpwm;
+    } else {
+      throw Bad(kAttrPowerStage, *stage, "must be h_bridge (S-13) or svpwm (S-14)");
+    }
+  }
+  const std::vector<DetentHarmonic> estimates =
+      r.Raw(kAttrDampingDetent) ? ParseDetent(kAttrDampingDetent, *r.Raw(kAttrDampingDetent))
+                                : c.motor.detent;
+  if (const auto damping = r.Raw(kAttrDamping)) c.damping = SelectDamping(*damping, estimates);
+
+  double counts = preset->encoder_counts;
+  r.Number(
+      kAttrEncoderCounts, "counts/rev", "must be an integer in [0, 1e9] (0: ideal)",
+      [](double v) { return v >= 0 && v <= 1e9 && v == std::floor(v); }, &counts);
+  c.encoder_counts = static_cast<int>(counts);
+  r.Number(kAttrVelocityCutoff, "Hz", "must be > 0", positive, &c.velocity_cutoff);
+  r.Number(kAttrPositionPeriod, "s", "must be > 0", positive, &c.position_period);
+  const double ratio = c.position_period / c.isr_period;
+  if (!(ratio >= 1 && std::abs(ratio - std::round(ratio)) < 1e-9 * ratio)) {
+    throw Bad(kAttrPositionPeriod, r.Raw(kAttrPositionPeriod).value_or("250e-6"),
+              fmt::format("must be a whole multiple of isr_period = {} (s)", c.isr_period));
+  }
+  r.Number(kAttrServoKp, "N·m/rad", "must be >= 0", non_negative, &c.servo_kp);
+  r.Number(kAttrServoKi, "N·m/(rad·s)", "must be >= 0", non_negative, &c.servo_ki);
+  r.Number(kAttrServoKv, "N·m·s/rad", "must be >= 0", non_negative, &c.servo_kv);
+  c.friction_compensation = preset->motor.static_friction;
+  r.Number(kAttrFrictionCompensation, "N·m", "must be >= 0", non_negative,
+           &c.friction_compensation);
   Validate(c);  // the core's own checks, as a backstop
   return c;
 }
@@ -170,7 +237,17 @@ const std::vector<const char*>& AttributeNames() {
                                                  kAttrKp,
                                                  kAttrKi,
                                                  kAttrIsrPeriod,
-                                                 kAttrComputeDelay};
+                                                 kAttrComputeDelay,
+                                                 kAttrPowerStage,
+                                                 kAttrDamping,
+                                                 kAttrDampingDetent,
+                                                 kAttrEncoderCounts,
+                                                 kAttrVelocityCutoff,
+                                                 kAttrPositionPeriod,
+                                                 kAttrServoKp,
+                                                 kAttrServoKi,
+                                                 kAttrServoKv,
+                                                 kAttrFrictionCompensation};
   return names;
 }
 

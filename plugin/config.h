@@ -28,6 +28,16 @@ inline constexpr char kAttrKp[] = "kp";                               // V/A
 inline constexpr char kAttrKi[] = "ki";                               // V/A per tick
 inline constexpr char kAttrIsrPeriod[] = "isr_period";                // s
 inline constexpr char kAttrComputeDelay[] = "compute_delay";          // s
+inline constexpr char kAttrPowerStage[] = "power_stage";              // h_bridge | svpwm
+inline constexpr char kAttrDamping[] = "damping";                     // none | all | "4 2 1"
+inline constexpr char kAttrDampingDetent[] = "damping_detent";        // drive's estimates
+inline constexpr char kAttrEncoderCounts[] = "encoder_counts";        // counts/rev
+inline constexpr char kAttrVelocityCutoff[] = "velocity_cutoff";      // Hz
+inline constexpr char kAttrPositionPeriod[] = "position_period";      // s
+inline constexpr char kAttrServoKp[] = "servo_kp";                    // N·m/rad
+inline constexpr char kAttrServoKi[] = "servo_ki";                    // N·m/(rad·s)
+inline constexpr char kAttrServoKv[] = "servo_kv";                    // N·m·s/rad
+inline constexpr char kAttrFrictionCompensation[] = "friction_compensation";  // N·m
 
 /// Every attribute, in the order of the README table.
 const std::vector<const char*>& AttributeNames();

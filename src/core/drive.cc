@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/motor.h"
+#include "core/sensors/encoder.h"
 #include "core/units.h"
 #include "core/winding.h"
 
@@ -20,6 +21,22 @@ void Require(bool ok, const char* name, double value, const char* rule) {
 }
 
 }  // namespace
+
+const char* DriveKindName(DriveKind kind) {
+  switch (kind) {
+    case DriveKind::kVoltageMicrostep:
+      return "voltage_microstep";
+    case DriveKind::kCurrentMicrostep:
+      return "current_microstep";
+    case DriveKind::kIdealCurrent:
+      return "ideal_current";
+    case DriveKind::kServo:
+      return "servo";
+    case DriveKind::kIdentification:
+      return "identification";
+  }
+  return "?";
+}
 
 DriveState LoadState(const double* values) {
   DriveState state;
@@ -50,21 +67,46 @@ void Validate(const DriveConfig& c) {
   Require(c.compute_delay >= 0 && c.compute_delay < c.isr_period, "compute_delay", c.compute_delay,
           "must be >= 0 and < isr_period (s)");
   Require(c.rk4_step > 0, "rk4_step", c.rk4_step, "must be > 0 (s)");
+  Require(c.encoder_counts >= 0, "encoder_counts", c.encoder_counts, "must be >= 0 (0: ideal)");
+  Require(c.velocity_cutoff > 0 && std::isfinite(c.velocity_cutoff), "velocity_cutoff",
+          c.velocity_cutoff, "must be finite and > 0 (Hz)");
+  const double ratio = c.position_period / c.isr_period;
+  Require(ratio >= 1 && std::abs(ratio - std::round(ratio)) < 1e-9 * ratio, "position_period",
+          c.position_period, "must be a whole multiple of isr_period (s)");
+  for (double gain : {c.servo_kp, c.servo_ki, c.servo_kv, c.friction_compensation}) {
+    Require(gain >= 0 && std::isfinite(gain), "servo gain or friction_compensation", gain,
+            "must be finite and >= 0");
+  }
+  MotorParams damping_check = c.motor;
+  damping_check.detent = c.damping;
+  Validate(damping_check);
 }
 
 Drive::Drive(DriveConfig config) : config_(std::move(config)) {
   Validate(config_);
-  bridges_ = {.bus_voltage = config_.bus_voltage};
-  voltage_controller_ = {.rotor_teeth = config_.motor.rotor_teeth,
+  const MotorParams& motor = config_.motor;
+  stage_ = {.kind = config_.power_stage, .bus_voltage = config_.bus_voltage};
+  const DqCurrentLoop loop{.kp = config_.kp, .ki_per_tick = config_.ki_per_tick};
+  const HarmonicCompensation damping{.harmonics = config_.damping};
+  voltage_controller_ = {.rotor_teeth = motor.rotor_teeth,
                          .voltage_amplitude = config_.voltage_amplitude};
-  current_controller_ = {.rotor_teeth = config_.motor.rotor_teeth,
+  current_controller_ = {.rotor_teeth = motor.rotor_teeth,
+                         .torque_constant = motor.torque_constant,
                          .hold_current = config_.hold_current,
-                         .kp = config_.kp,
-                         .ki_per_tick = config_.ki_per_tick};
-}
-
-PhaseVector Drive::IdealCurrent(double theta_cmd) const {
-  return current_controller_.RestCurrent(theta_cmd);
+                         .damping = damping,
+                         .loop = loop};
+  servo_controller_ = {.rotor_teeth = motor.rotor_teeth,
+                       .torque_constant = motor.torque_constant,
+                       .kp = config_.servo_kp,
+                       .ki = config_.servo_ki,
+                       .kv = config_.servo_kv,
+                       .friction = config_.friction_compensation,
+                       .position_period = config_.position_period,
+                       .identification = config_.kind == DriveKind::kIdentification,
+                       .damping = damping,
+                       .loop = loop};
+  velocity_estimator_ = {.period = config_.isr_period, .cutoff = config_.velocity_cutoff};
+  ticks_per_position_update_ = std::lround(config_.position_period / config_.isr_period);
 }
 
 DriveState Drive::Rest(double time, double theta, double command) const {
@@ -80,12 +122,18 @@ DriveState Drive::Rest(double time, double theta, double command) const {
     case DriveKind::kCurrentMicrostep:
     case DriveKind::kIdealCurrent: {
       current = current_controller_.RestCurrent(s.theta_cmd);
-      const PhaseVector integral = current_controller_.RestIntegral(config_.motor.resistance);
+      const PhaseVector integral =
+          current_controller_.RestIntegral(s.theta_cmd, config_.motor.resistance);
       s.integral_d = integral.real();
       s.integral_q = integral.imag();
       break;
     }
+    case DriveKind::kServo:
+    case DriveKind::kIdentification:
+      current = 0;  // the servo at rest on its command asks for no torque
+      break;
   }
+  s.theta_meas = EncoderAngle(theta, config_.encoder_counts);
   // At rest v = R·i holds the current constant (S-3 with ω = 0).
   const PhaseVector voltage = config_.motor.resistance * current;
   s.current_a = current.real();
@@ -96,21 +144,38 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   return s;
 }
 
-void Drive::Tick(DriveState* s, const ControlSample& sample) const {
+void Drive::Tick(DriveState* s, long k, double theta, double theta_cmd, double omega_cmd,
+                 PhaseVector current) const {
+  // Sensors: encoder (S-16) and the backward-difference velocity estimate (S-17), every tick.
+  const double theta_meas = EncoderAngle(theta, config_.encoder_counts);
+  velocity_estimator_.Update(theta_meas, &s->theta_meas, &s->omega_est);
+  const ControlSample sample{.theta_cmd = theta_cmd,
+                             .omega_cmd = omega_cmd,
+                             .current = current,
+                             .theta_fb = theta_meas,
+                             .omega_fb = s->omega_est,
+                             .position_tick = k % ticks_per_position_update_ == 0};
+  PhaseVector integral(s->integral_d, s->integral_q);
   BridgeOutput out;
   switch (config_.kind) {
     case DriveKind::kVoltageMicrostep:
-      out = voltage_controller_.Update(sample, bridges_);
+      out = voltage_controller_.Update(sample, stage_);
       break;
     case DriveKind::kCurrentMicrostep:
-    case DriveKind::kIdealCurrent: {
-      PhaseVector integral(s->integral_d, s->integral_q);
-      out = current_controller_.Update(sample, bridges_, &integral);
-      s->integral_d = integral.real();
-      s->integral_q = integral.imag();
+    case DriveKind::kIdealCurrent:
+      out = current_controller_.Update(sample, stage_, &integral);
+      break;
+    case DriveKind::kServo:
+    case DriveKind::kIdentification: {
+      ServoState servo{.position_integral = s->position_integral, .iq_cmd = s->iq_cmd};
+      out = servo_controller_.Update(sample, stage_, &integral, &servo);
+      s->position_integral = servo.position_integral;
+      s->iq_cmd = servo.iq_cmd;
       break;
     }
   }
+  s->integral_d = integral.real();
+  s->integral_q = integral.imag();
   s->pending_a = out.voltage.real();
   s->pending_b = out.voltage.imag();
   s->pending = 1;
@@ -130,7 +195,7 @@ void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double c
   };
 
   if (config_.kind == DriveKind::kIdealCurrent) {
-    const PhaseVector i = IdealCurrent(theta_cmd_at(t1));
+    const PhaseVector i = current_controller_.RestCurrent(theta_cmd_at(t1));
     s->current_a = i.real();
     s->current_b = i.imag();
   } else {
@@ -176,12 +241,7 @@ void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double c
         voltage = {s->pending_a, s->pending_b};
         s->pending = 0;
       } else {  // interrupt k: sample, compute v[k]
-        const ControlSample sample{.theta_cmd = theta_cmd_at(t),
-                                   .omega_cmd = omega_cmd,
-                                   .current = current,
-                                   .theta = theta_at(t),
-                                   .omega = omega};
-        Tick(s, sample);
+        Tick(s, std::lround(s->next_tick), theta_at(t), theta_cmd_at(t), omega_cmd, current);
         s->next_tick += 1;
       }
     }
@@ -217,16 +277,20 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
   out.torque_total = out.torque_em + out.torque_detent;
   out.load_angle = motor.rotor_teeth * (s.theta_cmd - theta);  // S-12
   out.lost_steps = 4.0 * std::round(out.load_angle / kTwoPi);
+  out.theta_meas = s.theta_meas;
+  out.omega_est = s.omega_est;
   return out;
 }
 
 double Drive::RestCurrentMagnitude() const {
+  if (IsServo()) return 0.0;
   return config_.kind == DriveKind::kVoltageMicrostep
              ? config_.voltage_amplitude / config_.motor.resistance
              : config_.hold_current;
 }
 
 double Drive::HoldingStiffness() const {
+  if (config_.kind == DriveKind::kServo) return config_.servo_kp;  // the position loop's spring
   return config_.motor.rotor_teeth * config_.motor.torque_constant * RestCurrentMagnitude();
 }
 

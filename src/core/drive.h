@@ -19,17 +19,25 @@
 #include <type_traits>
 
 #include "core/controllers/current_microstep.h"
+#include "core/controllers/servo.h"
 #include "core/controllers/voltage_microstep.h"
 #include "core/motor_params.h"
 #include "core/power_stage.h"
+#include "core/sensors/velocity_estimator.h"
 
 namespace mjstepper {
 
 enum class DriveKind {
   kVoltageMicrostep,  ///< open-loop voltage microstepping, K(5)
   kCurrentMicrostep,  ///< PI current loop at the commanded angle, T(9)-(12)
-  kIdealCurrent,      ///< currents equal the T(12) setpoint at every instant (ideal current source)
+  kIdealCurrent,      ///< currents equal the T(12)-(13) setpoint at every instant (ideal source)
+  kServo,             ///< servo with harmonic damping, T(18)-(19): encoder feedback, 4 kHz + 20 kHz
+  kIdentification,    ///< T(7)-(8): servo with the position loop off, compensation only
 };
+
+/// The MJCF name of a drive kind: voltage_microstep, current_microstep, ideal_current, servo,
+/// identification.
+const char* DriveKindName(DriveKind kind);
 
 enum class InputMode {
   kPosition,  ///< the command is the rotor angle θcmd, rad (held over a step)
@@ -49,6 +57,17 @@ struct DriveConfig {
   double ki_per_tick = 0.01;        ///< PI integral gain, V/A per tick (T(10))
   double isr_period = 50e-6;        ///< T, s: interrupt period (S-15)
   double compute_delay = 25e-6;     ///< D, s: from sample to new voltage, 0 <= D < T (S-15)
+  PowerStageKind power_stage = PowerStageKind::kTwoHBridges;  ///< S-13 or S-14
+  /// The drive's harmonic compensation (T(13), T(19), T(8)): the enabled harmonics with the
+  /// drive's own estimates of Kdh, φh (may differ from motor.detent). Empty: no damping.
+  std::vector<DetentHarmonic> damping;
+  int encoder_counts = 4000;        ///< counts/rev of the servo's encoder (S-16); 0: ideal
+  double velocity_cutoff = 32.0;    ///< Hz, corner of the velocity estimate's low-pass (S-17)
+  double position_period = 250e-6;  ///< s, servo position loop period: a multiple of isr_period
+  double servo_kp = 1.0;            ///< N·m/rad, T(19)
+  double servo_ki = 10.0;           ///< N·m/(rad·s), T(19)
+  double servo_kv = 0.01;           ///< N·m·s/rad, T(19)
+  double friction_compensation = 0.029;  ///< Fs the servo and identification modes add, N·m
   WindingSolver solver = WindingSolver::kExact;
   double rk4_step = 1e-6;  ///< s, step of the kRk4 reference
 };
@@ -74,6 +93,10 @@ struct DriveState {
   double next_tick = 0;          ///< k of the next interrupt, at k·T
   double integral_d = 0;         ///< V, PI integrator s, d axis
   double integral_q = 0;         ///< V, q axis
+  double theta_meas = 0;         ///< rad, encoder angle at the last tick (S-16)
+  double omega_est = 0;          ///< rad/s, velocity estimate at the last tick (S-17)
+  double position_integral = 0;  ///< rad·s, servo ∫θerr
+  double iq_cmd = 0;             ///< A, servo q-current command held between position updates
   double energy_input = 0;       ///< J, ∫(va·ia + vb·ib) dt since the start
   double energy_copper = 0;      ///< J, ∫R·(ia² + ib²) dt
   double energy_mechanical = 0;  ///< J, ∫τm·ω dt
@@ -100,6 +123,8 @@ struct DriveSignals {
   double torque_total = 0;              ///< τm + τdet, N·m: what the drive applies to the rotor
   double load_angle = 0;                ///< δ = Nr·(θcmd − θ), electrical rad (S-12)
   double lost_steps = 0;                ///< full steps slipped: 4·round(δ/2π), signed
+  double theta_meas = 0;                ///< rad, encoder angle at the last tick
+  double omega_est = 0;                 ///< rad/s, velocity estimate at the last tick
 };
 
 class Drive {
@@ -125,17 +150,25 @@ class Drive {
   /// Magnitude of the current vector the drive holds at rest, A: I_hold, or Vmax/R in voltage mode.
   double RestCurrentMagnitude() const;
 
-  /// Holding stiffness T' = Nr·Km·I at rest, N·m/rad (SPEC §1, T(1)).
+  /// Holding stiffness at rest, N·m/rad: T' = Nr·Km·I (SPEC §1, T(1)); the servo's Kp in servo
+  /// mode; 0 in identification mode.
   double HoldingStiffness() const;
 
  private:
-  PhaseVector IdealCurrent(double theta_cmd) const;
-  void Tick(DriveState* s, const ControlSample& sample) const;
+  bool IsServo() const {
+    return config_.kind == DriveKind::kServo || config_.kind == DriveKind::kIdentification;
+  }
+  // Interrupt k at time t: sample the sensors, run the controller, schedule the new voltage.
+  void Tick(DriveState* s, long k, double theta, double theta_cmd, double omega_cmd,
+            PhaseVector current) const;
 
   DriveConfig config_;
-  TwoHBridges bridges_;
+  PowerStage stage_;
   VoltageMicrostepController voltage_controller_;
   CurrentMicrostepController current_controller_;
+  ServoController servo_controller_;
+  VelocityEstimator velocity_estimator_;
+  long ticks_per_position_update_ = 5;
 };
 
 }  // namespace mjstepper

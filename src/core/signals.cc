@@ -20,6 +20,8 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
       {"energy_input", "J", "∫(va·ia + vb·ib) dt since the start"},
       {"energy_copper", "J", "∫R·(ia² + ib²) dt"},
       {"energy_mechanical", "J", "∫τm·ω dt"},
+      {"theta_meas", "rad", "encoder angle at the last interrupt (S-16)"},
+      {"omega_est", "rad/s", "velocity estimate at the last interrupt (S-17)"},
   }};
   return table;
 }
@@ -28,7 +30,8 @@ std::array<double, kNumSignals> SignalValues(const DriveSignals& s, const DriveS
   return {s.current_a,  s.current_b,        s.voltage_a,         s.voltage_b,
           s.current_d,  s.current_q,        s.theta_cmd,         s.omega_cmd,
           s.torque_em,  s.torque_detent,    s.torque_total,      s.load_angle,
-          s.lost_steps, state.energy_input, state.energy_copper, state.energy_mechanical};
+          s.lost_steps, state.energy_input, state.energy_copper, state.energy_mechanical,
+          s.theta_meas, s.omega_est};
 }
 
 }  // namespace mjstepper

@@ -33,6 +33,8 @@ enum SignalIndex : int {
   kEnergyInput,
   kEnergyCopper,
   kEnergyMechanical,
+  kThetaMeas,
+  kOmegaEst,
   kNumSignals
 };
 

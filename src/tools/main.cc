@@ -16,18 +16,6 @@
 namespace mjstepper::tools {
 namespace {
 
-const char* DriveName(DriveKind k) {
-  switch (k) {
-    case DriveKind::kVoltageMicrostep:
-      return "voltage_microstep";
-    case DriveKind::kCurrentMicrostep:
-      return "current_microstep";
-    case DriveKind::kIdealCurrent:
-      return "ideal_current";
-  }
-  return "?";
-}
-
 // Semi-implicit Euler turns a spring of natural frequency ωn into one whose frequency is off by
 // about (ωn·h)²/24; above ωn·h = 0.2 that passes 0.17 % and the explicit motor torque starts to
 // distort the resonance this tool is for.
@@ -50,7 +38,7 @@ int Info(const std::string& path) {
         "    Nr {}, R {:g} Ω, L {:g} H, Km {:g} N·m/A, {} detent harmonic(s)\n"
         "    rest current {:g} A, holding stiffness T' = Nr·Km·I = {:.4g} N·m/rad\n"
         "    rotor-side inertia J = {:.4g} kg·m² → fn = (1/2π)·√(T'/J) = {:.2f} Hz (S-1..S-7)\n",
-        s.name, DriveName(s.config.kind),
+        s.name, DriveKindName(s.config.kind),
         s.config.input == InputMode::kPosition ? "position (ctrl in rad)"
                                                : "velocity (ctrl in rad/s)",
         p.rotor_teeth, p.resistance, p.inductance, p.torque_constant, p.detent.size(),

@@ -3,8 +3,8 @@
 
 #include <cmath>
 #include <fstream>
-#include <sstream>
 #include <numbers>
+#include <sstream>
 #include <vector>
 
 #include "../plugin/test_model.h"
@@ -109,8 +109,9 @@ TEST(TsuiPaper, H6_PowerBalanceOverTheRamp) {
   ASSERT_TRUE(m);
   const DataPtr d(mj_makeData(m.get()));
   mj_forward(m.get(), d.get());
-  const double stored0 = 0.5 * 2.2e-3 * (std::pow(d->sensordata[kCurrentA], 2) +
-                                          std::pow(d->sensordata[kCurrentB], 2));
+  const double stored0 =
+      0.5 * 2.2e-3 *
+      (std::pow(d->sensordata[kCurrentA], 2) + std::pow(d->sensordata[kCurrentB], 2));
   while (d->time < 0.8) {
     d->ctrl[0] = RpmToRadPerSec(200) * (d->time + 2.5e-5) / 0.8;
     mj_step(m.get(), d.get());

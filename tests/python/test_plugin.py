@@ -26,7 +26,7 @@ class PluginFromPython(unittest.TestCase):
             data.ctrl[0] = omega
             mujoco.mj_step(model, data)
         signals = data.sensor("shaft_signals").data
-        self.assertEqual(len(signals), 16)
+        self.assertEqual(len(signals), 18)
         # The rotor turned about ω·t (a synchronous motor; ±2 % for the start transient).
         self.assertAlmostEqual(data.qpos[0] / (omega * 0.2), 1.0, delta=0.02)
         # Current amplitude held near 1.9 A by the PI loop (±10 %: ripple and loop lag).

@@ -7,11 +7,12 @@
 namespace mjstepper {
 
 struct ControlSample {
-  double theta_cmd = 0;  ///< θcmd(t_k), rad (rotor side)
-  double omega_cmd = 0;  ///< dθcmd/dt, rad/s
-  PhaseVector current;   ///< ia + j·ib sampled at t_k, A
-  double theta = 0;      ///< rotor angle at t_k, rad (ideal sensor; encoders come with servo mode)
-  double omega = 0;      ///< rotor speed, rad/s
+  double theta_cmd = 0;        ///< θcmd(t_k), rad (rotor side)
+  double omega_cmd = 0;        ///< dθcmd/dt, rad/s
+  PhaseVector current;         ///< ia + j·ib sampled at t_k, A (ideal current sensors)
+  double theta_fb = 0;         ///< encoder angle θmeas(t_k), rad (S-16)
+  double omega_fb = 0;         ///< velocity estimate, rad/s (S-17)
+  bool position_tick = false;  ///< this tick also runs the position loop (servo modes)
 };
 
 }  // namespace mjstepper

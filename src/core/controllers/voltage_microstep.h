@@ -14,9 +14,9 @@ struct VoltageMicrostepController {
   int rotor_teeth = 50;           ///< Nr
   double voltage_amplitude = 24;  ///< Vmax, V
 
-  /// The bridge voltage for the tick; stateless.
-  BridgeOutput Update(const ControlSample& in, const TwoHBridges& bridges) const {
-    return bridges.Apply(voltage_amplitude * UnitPhasor(rotor_teeth * in.theta_cmd));  // K(5)
+  /// The stage voltage for the tick; stateless.
+  BridgeOutput Update(const ControlSample& in, const PowerStage& stage) const {
+    return stage.Apply(voltage_amplitude * UnitPhasor(rotor_teeth * in.theta_cmd));  // K(5)
   }
 
   /// Phase currents of the drive at rest, aligned with the command: Vmax/R·e^{jNrθcmd}.
