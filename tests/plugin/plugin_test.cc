@@ -225,6 +225,38 @@ TEST(StepperPlugin, GearScalesRotorToJoint) {
   EXPECT_NEAR((d->qpos[0] - q0) / 0.1, RpmToRadPerSec(100) / 4, 0.005 * RpmToRadPerSec(100) / 4);
 }
 
+// Static friction S-6 as the joint's frictionloss (MuJoCo's dry friction, solved as a constraint):
+// with the motor torque off (identification mode with no compensation) and detent off, a load
+// torque of 0.02 N·m < Fs = 0.029 N·m leaves the rotor stuck, and 0.04 N·m > Fs turns it, towards
+// (0.04 − 0.029)/B = 11 rad/s. MuJoCo's friction is a soft constraint: with the stiffest
+// settings (solreffriction = 2·timestep, solimpfriction 0.99-0.999, as models/tsui_rigid.xml) it
+// creeps at about 3e-4 rad/s under 0.02 N·m, so "stuck" is < 5e-4 rad in 0.5 s (1/60 full step).
+TEST(StepperPlugin, StaticFrictionSticksBelowFsAndSlipsAbove) {
+  const std::string actuator =
+      TsuiActuator("m1", "j1",
+                   Config("drive", "identification") + Config("detent", "none") +
+                       Config("friction_compensation", "0"));
+  const ModelPtr m = LoadModel(RotorModel(
+      actuator, "", "", 1, 5e-5,
+      R"(frictionloss="0.029" solreffriction="1e-4 1" solimpfriction="0.99 0.999 0.001")"));
+  ASSERT_TRUE(m);
+  for (double load : {0.02, 0.04}) {
+    const DataPtr d(mj_makeData(m.get()));
+    for (int k = 0; k < 10000; ++k) {
+      d->qfrc_applied[0] = load;
+      mj_step(m.get(), d.get());
+    }
+    if (load < 0.029) {
+      EXPECT_LT(std::abs(d->qpos[0]), 5e-4) << "load " << load;
+    } else {
+      // The drive's PI loop holds the currents near zero against the back-EMF, so the rotor
+      // runs near the 11 rad/s of the friction-viscous balance; 1 rad/s says it slips freely.
+      EXPECT_GT(d->qvel[0], 1.0) << "load " << load;
+      EXPECT_GT(d->qpos[0], 0.5) << "load " << load;
+    }
+  }
+}
+
 struct BadConfig {
   const char* key;
   const char* value;
