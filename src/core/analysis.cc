@@ -52,6 +52,32 @@ double CrossingFrequency(std::span<const double> t, std::span<const double> x) {
   return (crossings.size() - 1) / (crossings.back() - crossings.front());
 }
 
+double DominantFrequency(std::span<const double> x, double sample_rate, double f_min, double f_max,
+                         double df) {
+  const double mean = Mean(x);
+  std::vector<double> power;
+  for (double f = f_min; f <= f_max + 1e-9 * df; f += df) {
+    // Goertzel: s[n] = x[n] + 2·cos(w)·s[n−1] − s[n−2]; |X|² = s1² + s2² − 2·cos(w)·s1·s2.
+    const double coefficient = 2 * std::cos(kTwoPi * f / sample_rate);
+    double s1 = 0, s2 = 0;
+    for (double v : x) {
+      const double s0 = (v - mean) + coefficient * s1 - s2;
+      s2 = s1;
+      s1 = s0;
+    }
+    power.push_back(s1 * s1 + s2 * s2 - coefficient * s1 * s2);
+  }
+  if (power.empty()) return 0.0;
+  const size_t k = std::max_element(power.begin(), power.end()) - power.begin();
+  double offset = 0;
+  if (k > 0 && k + 1 < power.size()) {
+    const double a = power[k - 1], b = power[k], c = power[k + 1];
+    const double denominator = a - 2 * b + c;
+    if (denominator < 0) offset = 0.5 * (a - c) / denominator;
+  }
+  return f_min + (k + offset) * df;
+}
+
 double DampingRatioFromPeaks(std::span<const double> x) {
   const double mean = Mean(x);
   std::vector<double> peaks;

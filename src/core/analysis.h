@@ -23,6 +23,12 @@ Tone FitTone(std::span<const double> t, std::span<const double> x, double freque
 /// Frequency (Hz) from the upward crossings of the mean, linearly interpolated; 0 if fewer than 2.
 double CrossingFrequency(std::span<const double> t, std::span<const double> x);
 
+/// The frequency (Hz) in [f_min, f_max] where x's spectrum peaks, x sampled at `sample_rate` Hz:
+/// Goertzel power on a grid of step df, refined by a parabola through the peak and its neighbours.
+/// The mean is removed first.
+double DominantFrequency(std::span<const double> x, double sample_rate, double f_min, double f_max,
+                         double df);
+
 /// Damping ratio ζ of a decaying oscillation from its successive maxima about the mean
 /// (logarithmic decrement over all of them): ζ = d/√(4π² + d²), d = ln(x_0/x_n)/n.
 double DampingRatioFromPeaks(std::span<const double> x);

@@ -3,6 +3,8 @@
 #include <fmt/ostream.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iostream>
 #include <map>
@@ -12,6 +14,7 @@
 #include "core/units.h"
 #include "runner.h"
 #include "stepper_model.h"
+#include "sweep.h"
 
 namespace mjstepper::tools {
 namespace {
@@ -62,6 +65,7 @@ int Info(const std::string& path) {
 
 int main(int argc, char** argv) {
   using namespace mjstepper::tools;
+  using mjstepper::RadPerSecToRpm;
   CLI::App app{"mjstepper: stepper motors and their drives on MuJoCo joints"};
   app.require_subcommand(1);
 
@@ -78,6 +82,28 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--log-every", run.log_every, "log one row every N steps")->default_val(1);
   bool quiet = false;
   run_cmd->add_flag("--quiet", quiet, "no progress line");
+  std::vector<std::string> sets;
+  const char* set_help =
+      "ACTUATOR.KEY=VALUE: change a stepper's <config> for this run, e.g. "
+      "shaft.damping=all or shaft.drive=servo (repeatable)";
+  run_cmd->add_option("--set", sets, set_help);
+
+  SweepOptions sweep;
+  std::string speeds, sweep_out;
+  double settle = sweep.settle, measure = sweep.measure;
+  CLI::App* sweep_cmd =
+      app.add_subcommand("sweep", "constant-speed runs over a speed list: the resonance map");
+  sweep_cmd->add_option("model", sweep.model, "MJCF model")->required()->check(CLI::ExistingFile);
+  sweep_cmd->add_option("--speeds", speeds, "from:to:step or a,b,c with a unit: 10:200:2.5rpm")
+      ->required();
+  sweep_cmd->add_option("--actuator", sweep.actuator, "stepper to sweep (default: the only one)");
+  sweep_cmd->add_option("--out", sweep_out, "output prefix: writes PREFIX.csv")->required();
+  sweep_cmd->add_option("--settle", settle, "s after reaching speed before measuring")
+      ->default_val(settle);
+  sweep_cmd->add_option("--measure", measure, "s measured at each speed")->default_val(measure);
+  sweep_cmd->add_option("--threads", sweep.threads, "worker threads (default: one per core)");
+  sweep_cmd->add_option("--set", sets, set_help);
+  sweep_cmd->add_flag("--quiet", quiet, "no progress line");
 
   std::string info_model;
   CLI::App* info_cmd = app.add_subcommand("info", "list the steppers of a model and check it");
@@ -94,8 +120,31 @@ int main(int argc, char** argv) {
         run.ctrl[c.substr(0, eq)] = c.substr(eq + 1);
       }
       run.progress = !quiet;
+      for (const std::string& s : sets) run.overrides.push_back(ParseOverride(s));
       const RunResult result = Run(run, std::cerr);
       PrintSummary(result, run.log, std::cout);
+      return 0;
+    }
+    if (*sweep_cmd) {
+      sweep.speeds = ParseSpeedList(speeds);
+      sweep.settle = settle;
+      sweep.measure = measure;
+      sweep.progress = !quiet;
+      for (const std::string& s : sets) sweep.overrides.push_back(ParseOverride(s));
+      const auto start = std::chrono::steady_clock::now();
+      const std::vector<SweepPoint> points = Sweep(sweep, std::cerr);
+      WriteSweepCsv(sweep_out + ".csv", points);
+      const auto worst = std::max_element(points.begin(), points.end(),
+                                          [](const SweepPoint& a, const SweepPoint& b) {
+                                            return a.peak_to_peak_error < b.peak_to_peak_error;
+                                          });
+      fmt::print(
+          "{} speeds in {:.1f} s; largest velocity ripple {:.2f} r/min peak-to-peak at {:.1f} "
+          "r/min ({:.1f} Hz)\n  wrote {}.csv\n",
+          points.size(),
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+          RadPerSecToRpm(worst->peak_to_peak_error), RadPerSecToRpm(worst->speed),
+          worst->dominant_frequency, sweep_out);
       return 0;
     }
     return mjstepper::tools::Info(info_model);

@@ -24,7 +24,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   if (options.log_every < 1) {
     throw std::invalid_argument(fmt::format("--log-every = {}: must be >= 1", options.log_every));
   }
-  StepperModel sm = LoadStepperModel(options.model);
+  StepperModel sm = LoadStepperModel(options.model, options.overrides);
   const mjModel* m = sm.model.get();
   DataPtr data(mj_makeData(m));
   mjData* d = data.get();

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "config_overrides.h"
+
 namespace mjstepper::tools {
 
 struct RunOptions {
@@ -16,6 +18,7 @@ struct RunOptions {
   std::string log;                          ///< CSV path; empty for none
   int log_every = 1;                        ///< log one row every N steps
   bool progress = true;                     ///< progress line on stderr for runs over ~2 s
+  std::vector<ConfigOverride> overrides;    ///< e.g. shaft.damping=all
 };
 
 struct StepperSummary {

@@ -28,8 +28,8 @@ bool IsStepper(const mjModel* m, int actuator) {
   return instance >= 0 && m->plugin[instance] == StepperSlot();
 }
 
-ModelPtr Compile(mjSpec* spec) {
-  ModelPtr model(mj_compile(spec, nullptr));
+ModelPtr Compile(mjSpec* spec, const mjVFS* vfs) {
+  ModelPtr model(mj_compile(spec, vfs));
   if (!model) throw std::runtime_error(fmt::format("compile error: {}", mjs_getError(spec)));
   return model;
 }
@@ -49,13 +49,26 @@ void LoadPluginLibrary() {
   }
 }
 
-StepperModel LoadStepperModel(const std::string& path) {
+StepperModel LoadStepperModel(const std::string& path,
+                              const std::vector<ConfigOverride>& overrides) {
   LoadPluginLibrary();
+  // With overrides, the edited text is read from a VFS under the file's own name, so that relative
+  // asset paths still resolve against the model's folder.
+  struct Vfs {
+    Vfs() { mj_defaultVFS(&vfs); }
+    ~Vfs() { mj_deleteVFS(&vfs); }
+    mjVFS vfs;
+  } files;
+  const mjVFS* vfs = nullptr;
+  if (!overrides.empty()) {
+    const std::string edited = ApplyOverrides(path, overrides);
+    mj_addBufferVFS(&files.vfs, path.c_str(), edited.data(), static_cast<int>(edited.size()));
+    vfs = &files.vfs;
+  }
   char error[1024] = "";
-  std::unique_ptr<mjSpec, SpecDeleter> spec(
-      mj_parseXML(path.c_str(), nullptr, error, sizeof(error)));
+  std::unique_ptr<mjSpec, SpecDeleter> spec(mj_parseXML(path.c_str(), vfs, error, sizeof(error)));
   if (!spec) throw std::runtime_error(fmt::format("{}: {}", path, error));
-  ModelPtr model = Compile(spec.get());
+  ModelPtr model = Compile(spec.get(), vfs);
 
   // Which stepper actuators already have a probe sensor?
   std::vector<int> probe_of(model->nactuator, -1);
@@ -89,7 +102,7 @@ StepperModel LoadStepperModel(const std::string& path) {
     sensor->plugin.element = probe->element;
     added = true;
   }
-  if (added) model = Compile(spec.get());
+  if (added) model = Compile(spec.get(), vfs);
 
   StepperModel out;
   for (int s = 0; s < model->nsensor; ++s) {

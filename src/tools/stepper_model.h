@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "config_overrides.h"
 #include "core/drive.h"
 
 namespace mjstepper::tools {
@@ -41,8 +42,10 @@ struct StepperModel {
 /// tools. Throws std::runtime_error when MuJoCo does not then know mjstepper.stepper.
 void LoadPluginLibrary();
 
-/// Throws std::runtime_error with MuJoCo's own message on any load or compile error.
-StepperModel LoadStepperModel(const std::string& path);
+/// Throws std::runtime_error with MuJoCo's own message on any load or compile error. `overrides`
+/// change steppers' <config> values for this load only (config_overrides.h).
+StepperModel LoadStepperModel(const std::string& path,
+                              const std::vector<ConfigOverride>& overrides = {});
 
 /// Rotor-side inertia seen by the actuator at qpos0, kg·m²: M[dof, dof] / gear² (armature
 /// included).

@@ -1,8 +1,8 @@
 // Open-loop harmonic damping, T(13): the setpoint and what it cancels.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <numbers>
-
-#include <gtest/gtest.h>
 
 #include "core/drive.h"
 #include "core/motor.h"

@@ -1,10 +1,10 @@
 // Power stages, S-13 and S-14 (Tsui eq. 14-17): the SVPWM linear range, its scaling, its legs.
 #include "core/power_stage.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <numbers>
-
-#include <gtest/gtest.h>
 
 namespace mjstepper {
 namespace {

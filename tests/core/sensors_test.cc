@@ -1,9 +1,9 @@
 // Encoder (S-16) and velocity estimator (S-17), and H15.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <numbers>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "core/analysis.h"
 #include "core/sensors/encoder.h"

@@ -1,0 +1,47 @@
+// `mjstepper sweep`: constant-speed runs over a list of speeds, the resonance map of a stepper.
+// Each run ramps to its speed, settles, then measures the velocity error ω − ωcmd: RMS,
+// peak-to-peak and dominant frequency. Runs are spread over worker threads, one mjData each.
+#ifndef MJSTEPPER_TOOLS_SWEEP_H_
+#define MJSTEPPER_TOOLS_SWEEP_H_
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "config_overrides.h"
+
+namespace mjstepper::tools {
+
+struct SweepOptions {
+  std::string model;                      ///< MJCF path
+  std::string actuator;                   ///< the stepper swept; empty: the model's only one
+  std::vector<double> speeds;             ///< rad/s
+  double acceleration = 209.44;           ///< rad/s² of the ramp to each speed (2000 r/min/s)
+  double settle = 0.4;                    ///< s after the ramp before measuring
+  double measure = 0.5;                   ///< s measured
+  int threads = 0;                        ///< 0: one per core
+  std::vector<ConfigOverride> overrides;  ///< e.g. shaft.damping=all
+  bool progress = true;
+};
+
+struct SweepPoint {
+  double speed = 0;               ///< rad/s, commanded
+  double rms_error = 0;           ///< rad/s, RMS of ω − ωcmd over the measured window
+  double peak_to_peak_error = 0;  ///< rad/s
+  double dominant_frequency = 0;  ///< Hz, of the velocity error, searched in [5, 1000] Hz
+  double lost_steps = 0;          ///< full steps slipped by the end
+};
+
+/// "10:200:2.5rpm" (from:to:step, inclusive), "50,100,150rpm", or one speed; units rpm, r/min,
+/// rad/s. Throws std::invalid_argument quoting the text.
+std::vector<double> ParseSpeedList(const std::string& text);
+
+/// Throws std::runtime_error / std::invalid_argument with a message for the user.
+std::vector<SweepPoint> Sweep(const SweepOptions& options, std::ostream& progress);
+
+/// CSV with a header naming units, written to path.tmp and renamed.
+void WriteSweepCsv(const std::string& path, const std::vector<SweepPoint>& points);
+
+}  // namespace mjstepper::tools
+
+#endif  // MJSTEPPER_TOOLS_SWEEP_H_
