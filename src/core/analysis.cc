@@ -78,6 +78,20 @@ double DominantFrequency(std::span<const double> x, double sample_rate, double f
   return f_min + (k + offset) * df;
 }
 
+std::vector<double> BinnedPeakToPeak(std::span<const double> key, std::span<const double> value,
+                                     double key_min, double bin, int bins) {
+  std::vector<double> lo(bins, 1e300), hi(bins, -1e300);
+  for (size_t k = 0; k < key.size(); ++k) {
+    const int b = static_cast<int>(std::floor((key[k] - key_min) / bin));
+    if (b < 0 || b >= bins) continue;
+    lo[b] = std::min(lo[b], value[k]);
+    hi[b] = std::max(hi[b], value[k]);
+  }
+  std::vector<double> p2p(bins, 0.0);
+  for (int b = 0; b < bins; ++b) p2p[b] = hi[b] >= lo[b] ? hi[b] - lo[b] : 0.0;
+  return p2p;
+}
+
 double DampingRatioFromPeaks(std::span<const double> x) {
   const double mean = Mean(x);
   std::vector<double> peaks;

@@ -29,6 +29,11 @@ double CrossingFrequency(std::span<const double> t, std::span<const double> x);
 double DominantFrequency(std::span<const double> x, double sample_rate, double f_min, double f_max,
                          double df);
 
+/// Peak-to-peak of `value` in bins of `key` of width `bin` starting at key_min: the ripple
+/// envelope of a ramp against its commanded speed. Empty bins are 0.
+std::vector<double> BinnedPeakToPeak(std::span<const double> key, std::span<const double> value,
+                                     double key_min, double bin, int bins);
+
 /// Damping ratio ζ of a decaying oscillation from its successive maxima about the mean
 /// (logarithmic decrement over all of them): ζ = d/√(4π² + d²), d = ln(x_0/x_n)/n.
 double DampingRatioFromPeaks(std::span<const double> x);

@@ -68,6 +68,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   const long steps = std::lround(options.duration / h);
   RunResult result;
   result.steppers.resize(sm.steppers.size());
+  if (options.keep_traces) result.traces.resize(sm.steppers.size());
   std::vector<double> sum_sq(sm.steppers.size(), 0.0);
   std::vector<double> row;
   const auto start = std::chrono::steady_clock::now();
@@ -93,6 +94,14 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
       sum.max_load_angle = std::max(sum.max_load_angle, std::abs(signals[kLoadAngle]));
       sum.lost_steps = signals[kLostSteps];
       sum.final_speed = omega;
+      if (options.keep_traces) {
+        StepperTrace& trace = result.traces[i];
+        trace.time.push_back(t);
+        trace.omega_cmd.push_back(omega_cmd);
+        trace.velocity_error.push_back(error);
+        trace.current_a.push_back(signals[kCurrentA]);
+        trace.load_angle.push_back(signals[kLoadAngle]);
+      }
       if (csv) {
         row.insert(row.end(), {d->actuator_length[s.outadr], omega, error});
         row.insert(row.end(), signals, signals + kNumSignals);

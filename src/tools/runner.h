@@ -19,6 +19,16 @@ struct RunOptions {
   int log_every = 1;                        ///< log one row every N steps
   bool progress = true;                     ///< progress line on stderr for runs over ~2 s
   std::vector<ConfigOverride> overrides;    ///< e.g. shaft.damping=all
+  bool keep_traces = false;                 ///< fill RunResult::traces (for studies and tests)
+};
+
+/// Per-step records of one stepper, at each step's start.
+struct StepperTrace {
+  std::vector<double> time;            ///< s
+  std::vector<double> omega_cmd;       ///< rad/s
+  std::vector<double> velocity_error;  ///< rad/s, ω − ωcmd
+  std::vector<double> current_a;       ///< A
+  std::vector<double> load_angle;      ///< electrical rad
 };
 
 struct StepperSummary {
@@ -36,6 +46,7 @@ struct RunResult {
   double sim_time = 0;   ///< s
   double wall_time = 0;  ///< s
   std::vector<StepperSummary> steppers;
+  std::vector<StepperTrace> traces;  ///< one per stepper when RunOptions::keep_traces
 };
 
 /// Throws std::runtime_error or std::invalid_argument with a message for the user.

@@ -123,3 +123,86 @@ TEST(TsuiPaper, H12_H13_HarmonicDampingAtConstantSpeed) {
 
 }  // namespace
 }  // namespace mjstepper::tools
+
+namespace mjstepper::tools {
+namespace {
+
+// The Fig. 7 ramp, 0 → 200 r/min in 0.8 s: the velocity error's peak-to-peak in bins of 2.5 r/min
+// of commanded speed (0.01 s, 1.4 periods at fn), from 0 to 200 r/min.
+std::vector<double> RampEnvelope(const std::string& damping) {
+  RunOptions o;
+  o.model = kModel;
+  o.duration = 0.8;
+  o.ctrl = {{"shaft", "ramp(0rpm,200rpm,0.8s)"}};
+  o.overrides = {{"shaft", "damping", damping}};
+  o.progress = false;
+  o.keep_traces = true;
+  std::ostringstream sink;
+  const RunResult r = Run(o, sink);
+  const StepperTrace& t = r.traces[0];
+  std::vector<double> rpm, error;
+  for (size_t k = 0; k < t.time.size(); ++k) {
+    rpm.push_back(RadPerSecToRpm(t.omega_cmd[k]));
+    error.push_back(RadPerSecToRpm(t.velocity_error[k]));
+  }
+  return BinnedPeakToPeak(rpm, error, 0.0, 2.5, 80);
+}
+
+// The bin of the largest ripple with its centre in [lo, hi] r/min.
+int BurstIn(const std::vector<double>& envelope, double lo, double hi) {
+  int best = -1;
+  for (int b = 0; b < static_cast<int>(envelope.size()); ++b) {
+    const double centre = 2.5 * (b + 0.5);
+    if (centre >= lo && centre <= hi && (best < 0 || envelope[b] > envelope[best])) best = b;
+  }
+  return best;
+}
+
+const double kBenchBursts[3] = {43.0, 86.0, 173.0};  // r/min, Tsui's bench (SPEC H11)
+
+// H11: the undamped ramp shows three ripple bursts, each within ± 15 % of 43 / 86 / 173 r/min: the
+// largest ripple within ± 15 % of each must be a local maximum of the envelope (larger than the
+// mean of the bins 5-10 r/min to either side), not the edge of a rising flank.
+TEST(TsuiPaper, H11_RampShowsThreeBursts) {
+  const std::vector<double> envelope = RampEnvelope("none");
+  for (double target : kBenchBursts) {
+    const int b = BurstIn(envelope, 0.85 * target, 1.15 * target);
+    ASSERT_GE(b, 4);
+    const double centre = 2.5 * (b + 0.5);
+    const double below = (envelope[b - 2] + envelope[b - 3] + envelope[b - 4]) / 3;
+    const double above =
+        b + 4 < 80 ? (envelope[b + 2] + envelope[b + 3] + envelope[b + 4]) / 3 : 0.0;
+    EXPECT_GT(envelope[b], below) << "burst near " << target;
+    EXPECT_GT(envelope[b], above) << "burst near " << target;
+    std::printf("H11: burst near %.0f r/min at %.2f r/min, %.2f r/min peak-to-peak\n", target,
+                centre, envelope[b]);
+  }
+}
+
+// H12 and H13 on the ramp: one harmonic's compensation cuts its own burst by at least 40 % and the
+// others by no worse than +20 %; all three cut every burst by at least 60 %.
+TEST(TsuiPaper, H12_H13_HarmonicDampingOnTheRamp) {
+  const std::vector<double> none = RampEnvelope("none");
+  auto burst = [](const std::vector<double>& e, double target) {
+    return e[BurstIn(e, 0.85 * target, 1.15 * target)];
+  };
+  for (int i = 0; i < 3; ++i) {
+    const std::vector<double> one = RampEnvelope(std::to_string(kOrders[i]));
+    for (int j = 0; j < 3; ++j) {
+      const double ratio = burst(one, kBenchBursts[j]) / burst(none, kBenchBursts[j]);
+      EXPECT_LE(ratio, i == j ? 0.6 : 1.2)
+          << "damping h=" << kOrders[i] << ", burst near " << kBenchBursts[j];
+      std::printf("H12 ramp: damping h=%d, burst near %.0f r/min: x%.3f\n", kOrders[i],
+                  kBenchBursts[j], ratio);
+    }
+  }
+  const std::vector<double> all = RampEnvelope("all");
+  for (double target : kBenchBursts) {
+    const double ratio = burst(all, target) / burst(none, target);
+    EXPECT_LE(ratio, 0.4) << "all harmonics, burst near " << target;
+    std::printf("H13 ramp: all harmonics, burst near %.0f r/min: x%.3f\n", target, ratio);
+  }
+}
+
+}  // namespace
+}  // namespace mjstepper::tools
