@@ -9,11 +9,9 @@
 // Identification (position loop off): iq* = (1/Km)·[Σh Kdh·sin(h·Nr·θfb + φh) + Fs·sgn(ωfb)],
 // updated every tick, while something else turns the shaft                             T(7)-(8)
 // SI gains (SPEC §3; the paper's are in undisclosed DSP units): Kp = 1.0 N·m/rad,
-// Ki = 10 N·m/(rad·s), Kv = 0.01 N·m·s/rad. With J = 0.36e-4 kg·m² and the current loop much
-// faster, the loop is J·s² + Kv·s + Kp (+ Ki/s): ωn = √(Kp/J) = 167 rad/s (26.5 Hz), ζ =
-// Kv/(2·√(Kp·J)) = 0.83, the integral zero at Ki/Kp = 10 rad/s well below; the 32 Hz velocity
-// filter adds about 40° of lag at ωn, leaving the loop stable with a phase margin near 35°
-// (docs/servo.md).
+// Ki = 10 N·m/(rad·s), Kv = 0.01 N·m·s/rad. On the Tsui rotor (J = 0.36e-4 kg·m², B = 0.001) with
+// the 32 Hz velocity filter and 175 µs of sampling delay the loop crosses over at 41 Hz with 26° of
+// phase margin and 20.7 dB of gain margin; closed-loop bandwidth 67 Hz (docs/servo.md).
 #ifndef MJSTEPPER_CORE_CONTROLLERS_SERVO_H_
 #define MJSTEPPER_CORE_CONTROLLERS_SERVO_H_
 
