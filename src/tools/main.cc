@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/units.h"
+#include "identify.h"
 #include "runner.h"
 #include "stepper_model.h"
 #include "sweep.h"
@@ -105,6 +106,23 @@ int main(int argc, char** argv) {
   sweep_cmd->add_option("--set", sets, set_help);
   sweep_cmd->add_flag("--quiet", quiet, "no progress line");
 
+  IdentifyOptions identify;
+  std::string identify_speeds = "10,30rpm";
+  CLI::App* identify_cmd = app.add_subcommand(
+      "identify", "estimate detent harmonics and static friction from constant-speed runs");
+  identify_cmd->add_option("model", identify.model, "MJCF with the stepper and a turning actuator")
+      ->required()
+      ->check(CLI::ExistingFile);
+  identify_cmd->add_option("--actuator", identify.actuator, "the stepper")->default_val("shaft");
+  identify_cmd
+      ->add_option("--dyno", identify.dyno, "the actuator that turns the shaft (ctrl: rad/s)")
+      ->default_val("dyno");
+  identify_cmd->add_option("--speeds", identify_speeds, "two or more speeds, e.g. 10,30rpm")
+      ->default_val(identify_speeds);
+  identify_cmd->add_option("--orders", identify.orders, "harmonic orders to fit")
+      ->default_val(std::vector<int>{4, 2, 1});
+  identify_cmd->add_option("--set", sets, set_help);
+
   std::string info_model;
   CLI::App* info_cmd = app.add_subcommand("info", "list the steppers of a model and check it");
   info_cmd->add_option("model", info_model, "MJCF model")->required()->check(CLI::ExistingFile);
@@ -123,6 +141,23 @@ int main(int argc, char** argv) {
       for (const std::string& s : sets) run.overrides.push_back(ParseOverride(s));
       const RunResult result = Run(run, std::cerr);
       PrintSummary(result, run.log, std::cout);
+      return 0;
+    }
+    if (*identify_cmd) {
+      identify.speeds = ParseSpeedList(identify_speeds);
+      for (const std::string& s : sets) identify.overrides.push_back(ParseOverride(s));
+      const Identified id = Identify(identify);
+      fmt::print("{}: identified from the torque turning '{}' at {}\n", identify.model,
+                 identify.actuator, identify_speeds);
+      for (const mjstepper::DetentHarmonic& dh : id.harmonics) {
+        fmt::print("  Kd{} = {:.5f} N·m, phi{} = {:+.4f} rad\n", dh.order, dh.amplitude, dh.order,
+                   dh.phase);
+      }
+      fmt::print("  Fs = {:.5f} N·m, B = {:.6f} N·m·s/rad; fit residual {:.2e} N·m RMS\n",
+                 id.static_friction, id.viscous_damping, id.residual_rms);
+      fmt::print("  <config key=\"damping_detent\" value=\"{}\"/>\n", id.DampingDetent());
+      fmt::print("  <config key=\"friction_compensation\" value=\"{:.5g}\"/>\n",
+                 id.static_friction);
       return 0;
     }
     if (*sweep_cmd) {
