@@ -25,10 +25,12 @@ if ((${#missing[@]})); then
 fi
 
 venv="$here/.venv"
-pin=$(grep -E '^mujoco==' "$here/requirements.txt" | cut -d= -f3)
-have=$("$venv/bin/python" -c 'import mujoco; print(mujoco.__version__)' 2>/dev/null || true)
-if [[ "$have" != "$pin" ]]; then
-  echo "bootstrap: creating $venv with mujoco==$pin"
-  python3 -m venv "$venv"
-  "$venv/bin/python" -m pip install -q -r "$here/requirements.txt"
+# The venv is up to date when it was made from this very requirements.txt.
+stamp="$venv/.requirements.sha256"
+want=$(sha256sum "$here/requirements.txt" | cut -d' ' -f1)
+if [[ ! -x "$venv/bin/python" || ! -f "$stamp" || "$(cat "$stamp")" != "$want" ]]; then
+  echo "bootstrap: installing requirements.txt into $venv"
+  [[ -x "$venv/bin/python" ]] || python3 -m venv "$venv"
+  "$venv/bin/python" -m pip install -q -r "$here/requirements.txt" 2>&1 | grep -v "^WARNING: Location" || true
+  "$venv/bin/python" -c 'import mujoco, matplotlib' && echo "$want" > "$stamp"
 fi

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <string>
@@ -13,6 +14,7 @@
 
 #include "core/units.h"
 #include "identify.h"
+#include "plot.h"
 #include "runner.h"
 #include "stepper_model.h"
 #include "sweep.h"
@@ -80,6 +82,8 @@ int main(int argc, char** argv) {
                       "constant(X), ramp(A,B,T), trapezoid(V,Ta,Tc,Td); units rpm, rad/s, rad, "
                       "deg, s");
   run_cmd->add_option("--log", run.log, "CSV log (written to FILE.tmp, then renamed)");
+  std::string run_plot;
+  run_cmd->add_option("--plot", run_plot, "PNG plot of the run (needs --log)");
   run_cmd->add_option("--log-every", run.log_every, "log one row every N steps")->default_val(1);
   bool quiet = false;
   run_cmd->add_flag("--quiet", quiet, "no progress line");
@@ -98,7 +102,8 @@ int main(int argc, char** argv) {
   sweep_cmd->add_option("--speeds", speeds, "from:to:step or a,b,c with a unit: 10:200:2.5rpm")
       ->required();
   sweep_cmd->add_option("--actuator", sweep.actuator, "stepper to sweep (default: the only one)");
-  sweep_cmd->add_option("--out", sweep_out, "output prefix: writes PREFIX.csv")->required();
+  sweep_cmd->add_option("--out", sweep_out, "output prefix: writes PREFIX.csv and PREFIX.png")
+      ->required();
   sweep_cmd->add_option("--settle", settle, "s after reaching speed before measuring")
       ->default_val(settle);
   sweep_cmd->add_option("--measure", measure, "s measured at each speed")->default_val(measure);
@@ -123,6 +128,16 @@ int main(int argc, char** argv) {
       ->default_val(std::vector<int>{4, 2, 1});
   identify_cmd->add_option("--set", sets, set_help);
 
+  std::vector<std::string> plot_csvs, plot_labels;
+  std::string plot_out, plot_title;
+  CLI::App* plot_cmd = app.add_subcommand("plot", "PNG plot of run logs or sweep CSVs");
+  plot_cmd->add_option("csv", plot_csvs, "CSV written by run or sweep")
+      ->required()
+      ->check(CLI::ExistingFile);
+  plot_cmd->add_option("--out", plot_out, "PNG")->required();
+  plot_cmd->add_option("--labels", plot_labels, "one label per sweep CSV");
+  plot_cmd->add_option("--title", plot_title, "title");
+
   std::string info_model;
   CLI::App* info_cmd = app.add_subcommand("info", "list the steppers of a model and check it");
   info_cmd->add_option("model", info_model, "MJCF model")->required()->check(CLI::ExistingFile);
@@ -139,8 +154,27 @@ int main(int argc, char** argv) {
       }
       run.progress = !quiet;
       for (const std::string& s : sets) run.overrides.push_back(ParseOverride(s));
+      if (!run_plot.empty() && run.log.empty()) {
+        throw std::invalid_argument("--plot needs --log: the plot is drawn from the log");
+      }
       const RunResult result = Run(run, std::cerr);
       PrintSummary(result, run.log, std::cout);
+      if (!run_plot.empty()) {
+        Plot("log", {run.log}, {}, run_plot);
+        fmt::print("  plot: {}\n", run_plot);
+      }
+      return 0;
+    }
+    if (*plot_cmd) {
+      std::ifstream first(plot_csvs[0]);
+      std::string header;
+      std::getline(first, header);
+      const bool sweep_csv = header.rfind("speed[r/min]", 0) == 0;
+      if (!sweep_csv && plot_csvs.size() != 1) {
+        throw std::invalid_argument("plot: give one run log, or any number of sweep CSVs");
+      }
+      Plot(sweep_csv ? "sweep" : "log", plot_csvs, plot_labels, plot_out, plot_title);
+      fmt::print("wrote {}\n", plot_out);
       return 0;
     }
     if (*identify_cmd) {
@@ -169,6 +203,8 @@ int main(int argc, char** argv) {
       const auto start = std::chrono::steady_clock::now();
       const std::vector<SweepPoint> points = Sweep(sweep, std::cerr);
       WriteSweepCsv(sweep_out + ".csv", points);
+      Plot("sweep", {sweep_out + ".csv"}, {}, sweep_out + ".png",
+           fmt::format("{}: constant-speed sweep", sweep.model));
       const auto worst = std::max_element(points.begin(), points.end(),
                                           [](const SweepPoint& a, const SweepPoint& b) {
                                             return a.peak_to_peak_error < b.peak_to_peak_error;
@@ -180,6 +216,7 @@ int main(int argc, char** argv) {
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
           RadPerSecToRpm(worst->peak_to_peak_error), RadPerSecToRpm(worst->speed),
           worst->dominant_frequency, sweep_out);
+      fmt::print("  wrote {}.png\n", sweep_out);
       return 0;
     }
     return mjstepper::tools::Info(info_model);

@@ -94,3 +94,59 @@ TEST(Runner, InfoWarnsWhenTimestepIsTooCoarse) {
 }
 
 }  // namespace
+
+namespace {
+
+bool IsPng(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  char magic[8] = {};
+  in.read(magic, 8);
+  return in && std::string(magic, 8) == "\x89PNG\r\n\x1a\n" &&
+         std::filesystem::file_size(path) > 10000;
+}
+
+// The sweep writes its CSV (header with units, one row per speed) and a PNG plot of it.
+TEST(Sweep, WritesCsvAndPng) {
+  const auto prefix = TempDir() / "sweep";
+  const Result r = RunCli("sweep " + kModel + " --speeds 40,45,50rpm --measure 0.1 --quiet --out " +
+                          prefix.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream in(prefix.string() + ".csv");
+  std::string header, line;
+  std::getline(in, header);
+  EXPECT_THAT(header, AllOf(HasSubstr("speed[r/min]"), HasSubstr("dominant_frequency[Hz]")));
+  int rows = 0;
+  while (std::getline(in, line)) ++rows;
+  EXPECT_EQ(rows, 3);
+  EXPECT_TRUE(IsPng(prefix.string() + ".png"));
+}
+
+// --set changes a stepper's config for one run: damping all lowers the ripple at the 2nd-harmonic
+// resonance; a bad actuator name is an error that names it.
+TEST(Runner, SetOverridesConfigForOneRun) {
+  auto max_error = [](const std::string& extra) {
+    const Result r = RunCli(
+        "run " + kModel + " --duration 0.5 --quiet --ctrl 'shaft=ramp(0rpm,90rpm,0.2s)' " + extra);
+    EXPECT_EQ(r.status, 0) << r.output;
+    const size_t at = r.output.find("max ");
+    return std::stod(r.output.substr(at + 4));
+  };
+  EXPECT_LT(max_error("--set shaft.damping=all"), 0.5 * max_error(""));
+  const Result bad = RunCli("run " + kModel + " --duration 0.01 --set axle.damping=all");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_THAT(bad.output, HasSubstr("axle"));
+}
+
+TEST(Runner, PlotDrawsALog) {
+  const auto dir = TempDir();
+  const Result run = RunCli("run " + kModel + " --duration 0.05 --quiet --log " +
+                            (dir / "p.csv").string() + " --plot " + (dir / "p.png").string());
+  ASSERT_EQ(run.status, 0) << run.output;
+  EXPECT_TRUE(IsPng(dir / "p.png"));
+  const Result plot =
+      RunCli("plot " + (dir / "p.csv").string() + " --out " + (dir / "q.png").string());
+  ASSERT_EQ(plot.status, 0) << plot.output;
+  EXPECT_TRUE(IsPng(dir / "q.png"));
+}
+
+}  // namespace

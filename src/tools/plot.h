@@ -1,0 +1,19 @@
+// PNG plots of the tools' CSVs, drawn by src/tools/python/mjstepper_plot.py (matplotlib, installed
+// into the project's venv by scripts/bootstrap.sh) in a child process.
+#ifndef MJSTEPPER_TOOLS_PLOT_H_
+#define MJSTEPPER_TOOLS_PLOT_H_
+
+#include <string>
+#include <vector>
+
+namespace mjstepper::tools {
+
+/// Plots a runner log (kind "log") or sweeps (kind "sweep", one label per CSV) into `png`.
+/// Throws std::runtime_error with the command when the plotter fails.
+void Plot(const std::string& kind, const std::vector<std::string>& csvs,
+          const std::vector<std::string>& labels, const std::string& png,
+          const std::string& title = "");
+
+}  // namespace mjstepper::tools
+
+#endif  // MJSTEPPER_TOOLS_PLOT_H_

@@ -1,0 +1,114 @@
+#!/usr/bin/env python3
+"""Plots of the CSVs mjstepper writes (matplotlib, headless Agg backend).
+
+  mjstepper_plot.py log RUN.csv --out RUN.png          runner log: speed, velocity error, currents,
+                                                       load angle of every stepper against time
+  mjstepper_plot.py sweep A.csv [B.csv ...] --labels "no damping" "all damped" --out SWEEP.png
+                                                       sweeps: velocity-error ripple against speed
+
+The PNG is written to OUT.tmp.png and renamed, so it is never half-written.
+"""
+import argparse
+import csv
+import math
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+RPM = 60.0 / (2.0 * math.pi)
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    header, data = rows[0], rows[1:]
+    columns = {name: [float(r[i]) for r in data] for i, name in enumerate(header)}
+    return header, columns
+
+
+def save(fig, out):
+    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
+    tmp = out + ".tmp.png"
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    os.replace(tmp, out)
+
+
+def steppers_of(header):
+    return [name.split(":")[0] for name in header if name.endswith(":omega[rad/s]")]
+
+
+def plot_log(path, out, title=None):
+    header, c = read_csv(path)
+    t = c["time[s]"]
+    names = steppers_of(header)
+    fig, axes = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
+    for name in names:
+        omega = [w * RPM for w in c[f"{name}:omega[rad/s]"]]
+        omega_cmd = [w * RPM for w in c[f"{name}:omega_cmd[rad/s]"]]
+        axes[0].plot(t, omega, lw=0.7, label=f"{name} speed")
+        axes[0].plot(t, omega_cmd, lw=1.0, ls="--", label=f"{name} command")
+        axes[1].plot(t, [e * RPM for e in c[f"{name}:velocity_error[rad/s]"]], lw=0.6, label=name)
+        axes[2].plot(t, c[f"{name}:current_a[A]"], lw=0.6, label=f"{name} ia")
+        axes[2].plot(t, c[f"{name}:current_b[A]"], lw=0.6, label=f"{name} ib")
+        axes[3].plot(t, c[f"{name}:load_angle[rad (electrical)]"], lw=0.6, label=name)
+    axes[0].set_ylabel("speed (r/min)")
+    axes[1].set_ylabel("velocity error (r/min)")
+    axes[2].set_ylabel("phase current (A)")
+    axes[3].set_ylabel("load angle (el. rad)")
+    axes[3].set_xlabel("time (s)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper left", fontsize=7)
+    fig.suptitle(title or os.path.basename(path))
+    fig.tight_layout()
+    save(fig, out)
+
+
+def plot_sweep(paths, labels, out, title=None):
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    for path, label in zip(paths, labels):
+        _, c = read_csv(path)
+        n = c["speed[r/min]"]
+        axes[0].plot(n, c["velocity_error_peak_to_peak[r/min]"], marker=".", lw=1, label=label)
+        axes[1].plot(n, c["dominant_frequency[Hz]"], marker=".", lw=0.8, label=label)
+    axes[0].set_ylabel("velocity error, peak-to-peak (r/min)")
+    axes[1].set_ylabel("dominant frequency (Hz)")
+    axes[1].set_xlabel("commanded speed (r/min)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(title or "constant-speed sweep")
+    fig.tight_layout()
+    save(fig, out)
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="kind", required=True)
+    log = sub.add_parser("log")
+    log.add_argument("csv")
+    log.add_argument("--out", required=True)
+    log.add_argument("--title")
+    sweep = sub.add_parser("sweep")
+    sweep.add_argument("csv", nargs="+")
+    sweep.add_argument("--labels", nargs="+")
+    sweep.add_argument("--out", required=True)
+    sweep.add_argument("--title")
+    args = parser.parse_args(argv)
+    if args.kind == "log":
+        plot_log(args.csv, args.out, args.title)
+    else:
+        labels = args.labels or [os.path.basename(p) for p in args.csv]
+        if len(labels) != len(args.csv):
+            parser.error("give one label per CSV")
+        plot_sweep(args.csv, labels, args.out, args.title)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
