@@ -92,7 +92,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
       sum_sq[i] += error * error;
       sum.max_velocity_error = std::max(sum.max_velocity_error, std::abs(error));
       sum.max_load_angle = std::max(sum.max_load_angle, std::abs(signals[kLoadAngle]));
-      sum.lost_steps = signals[kLostSteps];
+      sum.lost_steps = signals[kLostSteps] + 0.0;  // + 0.0: no "-0" in the summary
       sum.final_speed = omega;
       if (options.keep_traces) {
         StepperTrace& trace = result.traces[i];
