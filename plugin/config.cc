@@ -247,7 +247,8 @@ const std::vector<const char*>& AttributeNames() {
                                                  kAttrServoKp,
                                                  kAttrServoKi,
                                                  kAttrServoKv,
-                                                 kAttrFrictionCompensation};
+                                                 kAttrFrictionCompensation,
+                                                 kAttrGauge};
   return names;
 }
 
@@ -259,6 +260,19 @@ bool ParseFiniteDouble(const std::string& text, double* value) {
   if (*begin == '+') ++begin;  // from_chars rejects a leading '+'
   const auto [ptr, ec] = std::from_chars(begin, end, *value);
   return ec == std::errc() && ptr == end && std::isfinite(*value);
+}
+
+std::variant<StepperConfig, std::string> ParseStepperConfig(const AttributeReader& read) {
+  std::variant<DriveConfig, std::string> drive = ParseConfig(read);
+  if (std::string* error = std::get_if<std::string>(&drive)) return *error;
+  StepperConfig c{.drive = std::get<DriveConfig>(drive)};
+  const Reader r(read);
+  if (const auto gauge = r.Raw(kAttrGauge)) {
+    const std::string g = Trim(*gauge);
+    if (g != "on" && g != "off") return Bad(kAttrGauge, *gauge, "must be on or off").message;
+    c.gauge = g == "on";
+  }
+  return c;
 }
 
 std::variant<DriveConfig, std::string> ParseConfig(const AttributeReader& read) {

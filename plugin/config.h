@@ -38,6 +38,13 @@ inline constexpr char kAttrServoKp[] = "servo_kp";                    // N·m/ra
 inline constexpr char kAttrServoKi[] = "servo_ki";                    // N·m/(rad·s)
 inline constexpr char kAttrServoKv[] = "servo_kv";                    // N·m·s/rad
 inline constexpr char kAttrFrictionCompensation[] = "friction_compensation";  // N·m
+inline constexpr char kAttrGauge[] = "gauge";                                 // on | off
+
+/// What the plugin adds to a drive's configuration: presentation only.
+struct StepperConfig {
+  DriveConfig drive;
+  bool gauge = true;  ///< draw the load-angle gauge on the rotor (visualize callback)
+};
 
 /// Every attribute, in the order of the README table.
 const std::vector<const char*>& AttributeNames();
@@ -47,6 +54,9 @@ using AttributeReader = std::function<const char*(const char* name)>;
 
 /// The parsed configuration, or a message "name = "value": rule (unit)".
 std::variant<DriveConfig, std::string> ParseConfig(const AttributeReader& read);
+
+/// ParseConfig plus the plugin's own presentation attributes.
+std::variant<StepperConfig, std::string> ParseStepperConfig(const AttributeReader& read);
 
 /// Strict number parsing: the whole string (surrounding blanks allowed) must be one finite number.
 /// "48" and "4.8e1" pass; "", "48V", "nan", "inf", "4,8" fail.

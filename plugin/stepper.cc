@@ -101,9 +101,10 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
     return stepper;
   }
 
-  const std::variant<DriveConfig, std::string> parsed = ParseConfig(read);
+  const std::variant<StepperConfig, std::string> parsed = ParseStepperConfig(read);
   if (const std::string* error = std::get_if<std::string>(&parsed)) return fail(*error);
-  stepper->drive_.emplace(std::get<DriveConfig>(parsed));
+  stepper->drive_.emplace(std::get<StepperConfig>(parsed).drive);
+  stepper->gauge_ = std::get<StepperConfig>(parsed).gauge;
 
   for (int s = 0; s < m->nsensor; ++s) {
     if (m->sensor_plugin[s] == instance) {
@@ -194,6 +195,59 @@ void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
   }
 }
 
+void Stepper::Visualize(const mjModel* m, const mjData* d, mjvScene* scene, int instance) const {
+  if (!drive_ || !gauge_) return;
+  for (size_t slot = 0; slot < actuators_.size(); ++slot) {
+    if (scene->ngeom + 2 > scene->maxgeom) return;
+    const Actuator& a = actuators_[slot];
+    const int joint = m->actuator_trnid[2 * a.id];
+    const int body = m->jnt_bodyid[joint];
+    const double theta = d->actuator_length[a.outadr];
+    const double load_angle = drive_->Signals(CurrentState(m, d, instance, slot), theta).load_angle;
+    // Size from the rotor body's geoms; 2 cm if it has none.
+    double radius = 0;
+    for (int g = m->body_geomadr[body]; g >= 0 && g < m->body_geomadr[body] + m->body_geomnum[body];
+         ++g) {
+      radius = std::max(radius, m->geom_rbound[g]);
+    }
+    if (radius <= 0) radius = 0.02;
+    const mjtNum* axis = d->xaxis + 3 * joint;
+    const mjtNum* xmat = d->xmat + 9 * body;
+    // Reference: the body's y axis (else x) with its component along the joint axis removed.
+    mjtNum ref[3];
+    for (int k : {1, 0}) {
+      const mjtNum column[3] = {xmat[k], xmat[3 + k], xmat[6 + k]};
+      mju_addScl3(ref, column, axis, -mju_dot3(column, axis));
+      if (mju_normalize3(ref) > 0.1) break;
+    }
+    // The rotor's electrical arrow at −δ from the command's: u·cos δ − (axis × u)·sin δ.
+    mjtNum side[3], rotor[3];
+    mju_cross(side, axis, ref);
+    mju_scl3(rotor, ref, std::cos(load_angle));
+    mju_addToScl3(rotor, side, -std::sin(load_angle));
+    mjtNum centre[3];
+    mju_addScl3(centre, d->xanchor + 3 * joint, axis, 0.45 * radius);
+    // Command: long and thin, just above; rotor: shorter and thick: both show when they overlap.
+    // (MuJoCo draws an arrow of this length about as long as the rotor radius at these widths.)
+    struct Arrow {
+      const mjtNum* direction;
+      float rgba[4];
+      double length, width, lift;
+    };
+    const Arrow arrows[2] = {{ref, {0.1f, 0.85f, 0.25f, 1.0f}, 2.0, 0.09, 0.25},
+                             {rotor, {0.85f, 0.2f, 0.9f, 1.0f}, 1.5, 0.16, 0.0}};
+    for (const Arrow& arrow : arrows) {
+      mjvGeom* geom = scene->geoms + scene->ngeom++;
+      mjv_initGeom(geom, mjGEOM_ARROW, nullptr, nullptr, nullptr, arrow.rgba);
+      mjtNum from[3], tip[3];
+      mju_addScl3(from, centre, axis, arrow.lift * radius);
+      mju_addScl3(tip, from, arrow.direction, arrow.length * radius);
+      mjv_connector(geom, mjGEOM_ARROW, arrow.width * radius, from, tip);
+      geom->category = mjCAT_DECOR;
+    }
+  }
+}
+
 void Stepper::ComputeProbe(const mjModel* m, mjData* d, int instance) const {
   for (int s = 0; s < m->nsensor; ++s) {
     if (m->sensor_plugin[s] != instance) continue;
@@ -245,6 +299,10 @@ void RegisterStepperPlugin() {
   plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
     Stepper::FromData(d, instance).Advance(m, d, instance);
   };
+  plugin.visualize =
+      +[](const mjModel* m, mjData* d, const mjvOption*, mjvScene* scene, int instance) {
+        Stepper::FromData(d, instance).Visualize(m, d, scene, instance);
+      };
   mjp_registerPlugin(&plugin);
 }
 

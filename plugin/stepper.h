@@ -49,6 +49,9 @@ class Stepper {
   /// Called once per step after integration (time already t + h): moves each drive from t to t+h.
   void Advance(const mjModel* m, mjData* d, int instance) const;
 
+  /// Called by mjv_updateScene: adds each rotor's load-angle gauge to the scene (no state change).
+  void Visualize(const mjModel* m, const mjData* d, mjvScene* scene, int instance) const;
+
  private:
   struct Actuator {
     int id = -1;
@@ -65,7 +68,8 @@ class Stepper {
   DriveState CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const;
   void ComputeProbe(const mjModel* m, mjData* d, int instance) const;
 
-  std::optional<Drive> drive_;       // empty for a probe
+  std::optional<Drive> drive_;  // empty for a probe
+  bool gauge_ = true;
   std::vector<Actuator> actuators_;  // bound actuators, in id order
 };
 

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -82,7 +83,21 @@ int main(int argc, char** argv) {
                       "constant(X), ramp(A,B,T), trapezoid(V,Ta,Tc,Td); units rpm, rad/s, rad, "
                       "deg, s");
   run_cmd->add_option("--log", run.log, "CSV log (written to FILE.tmp, then renamed)");
-  std::string run_plot;
+  std::string run_plot, size = "1280x720";
+  run_cmd->add_option("--render", run.render.video, "MP4 video of the run (ffmpeg)");
+  run_cmd->add_option("--frames", run.render.frames_dir, "folder for PNG frames");
+  run_cmd->add_option("--camera", run.render.renderer.camera,
+                      "named camera of the model (default: the free camera)");
+  run_cmd->add_option("--size", size, "frame size WxH")->default_val(size);
+  run_cmd->add_option("--fps", run.render.fps, "video frames per second")->default_val(30);
+  run_cmd
+      ->add_option("--playback", run.render.playback,
+                   "simulated seconds per video second (0.1: ten times slower)")
+      ->default_val(1.0);
+  run_cmd->add_option("--overlay", run.render.overlay_steppers,
+                      "stepper whose plots are drawn (at most two; default: the first two)");
+  bool no_overlay = false;
+  run_cmd->add_flag("--no-overlay", no_overlay, "no plots or text on the frames");
   run_cmd->add_option("--plot", run_plot, "PNG plot of the run (needs --log)");
   run_cmd->add_option("--log-every", run.log_every, "log one row every N steps")->default_val(1);
   bool quiet = false;
@@ -154,6 +169,11 @@ int main(int argc, char** argv) {
       }
       run.progress = !quiet;
       for (const std::string& s : sets) run.overrides.push_back(ParseOverride(s));
+      if (std::sscanf(size.c_str(), "%dx%d", &run.render.renderer.width,
+                      &run.render.renderer.height) != 2) {
+        throw std::invalid_argument(fmt::format("--size {}: expected WxH, e.g. 640x480", size));
+      }
+      run.render.overlays = !no_overlay;
       if (!run_plot.empty() && run.log.empty()) {
         throw std::invalid_argument("--plot needs --log: the plot is drawn from the log");
       }

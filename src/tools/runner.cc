@@ -64,6 +64,10 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     csv.emplace(options.log, header);
   }
 
+  std::optional<RenderSession> render;
+  if (options.render.enabled()) render.emplace(m, sm.steppers, options.render);
+  std::vector<StepperSample> samples(sm.steppers.size());
+
   const double h = m->opt.timestep;
   const long steps = std::lround(options.duration / h);
   RunResult result;
@@ -94,6 +98,12 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
       sum.max_load_angle = std::max(sum.max_load_angle, std::abs(signals[kLoadAngle]));
       sum.lost_steps = signals[kLostSteps] + 0.0;  // + 0.0: no "-0" in the summary
       sum.final_speed = omega;
+      samples[i] = {.omega_cmd = omega_cmd,
+                    .velocity_error = error,
+                    .current_a = signals[kCurrentA],
+                    .current_b = signals[kCurrentB],
+                    .load_angle = signals[kLoadAngle],
+                    .lost_steps = signals[kLostSteps]};
       if (options.keep_traces) {
         StepperTrace& trace = result.traces[i];
         trace.time.push_back(t);
@@ -108,6 +118,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
       }
     }
     if (csv && k % options.log_every == 0) csv->Row(row);
+    if (render) render->Step(t, samples, d);
     const auto now = std::chrono::steady_clock::now();
     if (options.progress && now - last_report > std::chrono::seconds(2)) {
       last_report = now;
@@ -118,6 +129,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   }
   if (options.progress && last_report != start) fmt::print(progress, "\n");
   if (csv) csv->Commit();
+  if (render) result.frames = render->Finish();
   result.steps = steps;
   result.sim_time = d->time;
   result.wall_time =
@@ -143,6 +155,7 @@ void PrintSummary(const RunResult& r, const std::string& log, std::ostream& out)
                s.max_load_angle, s.lost_steps);
   }
   if (!log.empty()) fmt::print(out, "  log: {}\n", log);
+  if (r.frames > 0) fmt::print(out, "  rendered {} frames\n", r.frames);
 }
 
 }  // namespace mjstepper::tools

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "config_overrides.h"
+#include "render_session.h"
 
 namespace mjstepper::tools {
 
@@ -20,6 +21,7 @@ struct RunOptions {
   bool progress = true;                     ///< progress line on stderr for runs over ~2 s
   std::vector<ConfigOverride> overrides;    ///< e.g. shaft.damping=all
   bool keep_traces = false;                 ///< fill RunResult::traces (for studies and tests)
+  RenderOptions render;                     ///< video and frames; off unless a path is given
 };
 
 /// Per-step records of one stepper, at each step's start.
@@ -47,6 +49,7 @@ struct RunResult {
   double wall_time = 0;  ///< s
   std::vector<StepperSummary> steppers;
   std::vector<StepperTrace> traces;  ///< one per stepper when RunOptions::keep_traces
+  long frames = 0;                   ///< frames rendered
 };
 
 /// Throws std::runtime_error or std::invalid_argument with a message for the user.

@@ -1,0 +1,152 @@
+#include "render_session.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+
+#include "core/units.h"
+
+namespace mjstepper::tools {
+
+struct RenderSession::History {
+  std::vector<double> time;
+  std::vector<StepperSample> samples;
+};
+
+namespace {
+
+std::string DriveText(const DriveConfig& c) {
+  std::string damping;
+  for (const DetentHarmonic& h : c.damping) damping += fmt::format(" {}", h.order);
+  return fmt::format("{}, damping{}", DriveKindName(c.kind), damping.empty() ? " none" : damping);
+}
+
+}  // namespace
+
+RenderSession::RenderSession(const mjModel* m, const std::vector<StepperActuator>& steppers,
+                             const RenderOptions& options)
+    : model_(m), steppers_(steppers), options_(options), history_(steppers.size()) {
+  if (!(options.fps > 0) || !(options.playback > 0)) {
+    throw std::invalid_argument(fmt::format("--fps = {} and --playback = {}: both must be > 0",
+                                            options.fps, options.playback));
+  }
+  if (options.overlay_steppers.empty()) {
+    for (int i = 0; i < static_cast<int>(steppers.size()) && i < 2; ++i) overlay_.push_back(i);
+  } else {
+    for (const std::string& name : options.overlay_steppers) {
+      const auto it = std::find_if(steppers.begin(), steppers.end(),
+                                   [&](const StepperActuator& s) { return s.name == name; });
+      if (it == steppers.end()) {
+        throw std::invalid_argument(fmt::format("--overlay {}: no stepper of that name", name));
+      }
+      overlay_.push_back(static_cast<int>(it - steppers.begin()));
+    }
+    if (overlay_.size() > 2) throw std::invalid_argument("--overlay: at most two steppers");
+  }
+  renderer_ = std::make_unique<OffscreenRenderer>(m, options.renderer);
+  if (!options.video.empty()) {
+    video_.emplace(options.video, renderer_->width(), renderer_->height(), options.fps);
+  }
+  if (!options.frames_dir.empty()) std::filesystem::create_directories(options.frames_dir);
+  figure_ = std::make_unique<mjvFigure>();
+}
+
+RenderSession::~RenderSession() = default;
+
+void RenderSession::Step(double t, const std::vector<StepperSample>& samples, mjData* d) {
+  for (size_t i = 0; i < samples.size(); ++i) {
+    history_[i].time.push_back(t);
+    history_[i].samples.push_back(samples[i]);
+  }
+  // Frame k shows simulated time k·playback/fps: render each frame whose time has come.
+  while (frame_ * options_.playback / options_.fps <= d->time + 1e-12) {
+    RenderFrame(frame_ * options_.playback / options_.fps, d);
+    ++frame_;
+  }
+}
+
+void RenderSession::RenderFrame(double frame_time, mjData* d) {
+  renderer_->RenderScene(d);
+  const int w = renderer_->width(), h = renderer_->height();
+  if (options_.overlays) {
+    // Three plots per overlaid stepper, stacked in a column at the left (first) or right (second).
+    const int fw = std::max(160, w / 4), fh = std::max(90, h / 4);
+    for (size_t column = 0; column < overlay_.size(); ++column) {
+      const History& hist = history_[overlay_[column]];
+      const auto begin =
+          std::lower_bound(hist.time.begin(), hist.time.end(), frame_time - options_.window);
+      const auto end = std::upper_bound(hist.time.begin(), hist.time.end(), frame_time);
+      const size_t first = begin - hist.time.begin(), last = end - hist.time.begin();
+      const size_t stride = std::max<size_t>(1, (last - first) / (mjMAXLINEPNT - 1) + 1);
+      struct Plot {
+        const char* title;
+        std::vector<std::pair<const char*, double StepperSample::*>> lines;
+        double scale;
+      };
+      const Plot plots[3] = {
+          {"velocity error (r/min)", {{"", &StepperSample::velocity_error}}, 60.0 / kTwoPi},
+          {"phase currents (A)",
+           {{"ia", &StepperSample::current_a}, {"ib", &StepperSample::current_b}},
+           1.0},
+          {"load angle (el. rad)", {{"", &StepperSample::load_angle}}, 1.0}};
+      for (int p = 0; p < 3; ++p) {
+        mjvFigure& fig = *figure_;
+        mjv_defaultFigure(&fig);
+        fig.flg_extend = 1;
+        fig.gridsize[0] = 3;
+        fig.gridsize[1] = 3;
+        fig.figurergba[3] = 0.6f;
+        fig.panergba[3] = 0.6f;
+        fig.range[0][0] = frame_time - options_.window;
+        fig.range[0][1] = frame_time;
+        std::snprintf(fig.xformat, sizeof(fig.xformat), "%%.2f");
+        std::snprintf(fig.yformat, sizeof(fig.yformat), "%%.2g");
+        std::snprintf(fig.title, sizeof(fig.title), "%s: %s",
+                      steppers_[overlay_[column]].name.c_str(), plots[p].title);
+        const float colours[2][3] = {{0.95f, 0.35f, 0.2f}, {0.3f, 0.7f, 1.0f}};
+        for (size_t l = 0; l < plots[p].lines.size(); ++l) {
+          int n = 0;
+          for (size_t k = first; k < last && n < mjMAXLINEPNT; k += stride, ++n) {
+            fig.linedata[l][2 * n] = static_cast<float>(hist.time[k]);
+            fig.linedata[l][2 * n + 1] =
+                static_cast<float>(plots[p].scale * (hist.samples[k].*plots[p].lines[l].second));
+          }
+          fig.linepnt[l] = n;
+          std::copy(colours[l], colours[l] + 3, fig.linergb[l]);
+          std::snprintf(fig.linename[l], sizeof(fig.linename[l]), "%s", plots[p].lines[l].first);
+        }
+        fig.flg_legend = plots[p].lines.size() > 1;
+        const int x = column == 0 ? 0 : w - fw;
+        renderer_->DrawFigure({x, h - (p + 1) * fh, fw, fh}, &fig);
+      }
+    }
+    renderer_->DrawText(mjGRID_TOP, fmt::format("t = {:.4f} s", frame_time), "");
+    for (size_t i = 0; i < steppers_.size() && i < 2; ++i) {
+      const StepperActuator& s = steppers_[i];
+      const StepperSample& last =
+          history_[i].samples.empty() ? StepperSample{} : history_[i].samples.back();
+      const std::string labels = fmt::format("{}\ncommand\nspeed\nload angle\nlost steps", s.name);
+      const std::string values = fmt::format(
+          "{}\n{:.1f} r/min\n{:.1f} r/min\n{:+.3f} el. rad\n{:+.0f}", DriveText(s.config),
+          RadPerSecToRpm(last.omega_cmd), RadPerSecToRpm(last.omega_cmd + last.velocity_error),
+          last.load_angle, last.lost_steps + 0.0);
+      renderer_->DrawText(i == 0 ? mjGRID_BOTTOMLEFT : mjGRID_BOTTOMRIGHT, labels, values);
+    }
+  }
+  const std::vector<std::uint8_t>& rgb = renderer_->ReadPixels();
+  if (video_) video_->Write(rgb);
+  if (!options_.frames_dir.empty()) {
+    WritePng(fmt::format("{}/frame_{:05d}.png", options_.frames_dir, frame_), rgb, w, h);
+  }
+}
+
+long RenderSession::Finish() {
+  if (video_) video_->Finish();
+  video_.reset();
+  return frame_;
+}
+
+}  // namespace mjstepper::tools

@@ -1,0 +1,74 @@
+// Rendering a run as it goes: frames on their own clock (frame k shows simulation time
+// k·playback/fps, whatever the physics timestep), the 3D scene with the plugin's load-angle gauges,
+// per-stepper overlay plots (velocity error, phase currents, load angle over a sliding window that
+// ends at the frame's time) and text (time, commanded speed, drive mode). Frames go to an MP4
+// and/or numbered PNGs.
+#ifndef MJSTEPPER_TOOLS_RENDER_SESSION_H_
+#define MJSTEPPER_TOOLS_RENDER_SESSION_H_
+
+#include <mujoco/mujoco.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "offscreen_renderer.h"
+#include "stepper_model.h"
+#include "video_writer.h"
+
+namespace mjstepper::tools {
+
+struct RenderOptions {
+  std::string video;         ///< MP4 path; empty: none
+  std::string frames_dir;    ///< folder for frame_00000.png ...; empty: none
+  RendererOptions renderer;  ///< size and camera
+  double fps = 30;           ///< video frames per second
+  double playback = 1.0;     ///< simulated seconds per video second (0.1: ten times slower)
+  bool overlays = true;      ///< plots and text
+  std::vector<std::string> overlay_steppers;  ///< whose plots; empty: the first two steppers
+  double window = 0.25;                       ///< s of simulated time shown by the plots
+
+  bool enabled() const { return !video.empty() || !frames_dir.empty(); }
+};
+
+/// One stepper's sample at one physics step, as the runner computes it.
+struct StepperSample {
+  double omega_cmd = 0;                 ///< rad/s
+  double velocity_error = 0;            ///< rad/s
+  double current_a = 0, current_b = 0;  ///< A
+  double load_angle = 0;                ///< electrical rad
+  double lost_steps = 0;
+};
+
+class RenderSession {
+ public:
+  /// Throws std::runtime_error / std::invalid_argument with a message for the user.
+  RenderSession(const mjModel* m, const std::vector<StepperActuator>& steppers,
+                const RenderOptions& options);
+  ~RenderSession();
+
+  /// Records the steppers' samples at time t (one per stepper, in model order), then renders every
+  /// frame whose time has come by d->time.
+  void Step(double t, const std::vector<StepperSample>& samples, mjData* d);
+  /// Closes the video. Returns the number of frames written.
+  long Finish();
+
+ private:
+  struct History;
+  void RenderFrame(double frame_time, mjData* d);
+
+  const mjModel* model_;
+  std::vector<StepperActuator> steppers_;
+  RenderOptions options_;
+  std::vector<int> overlay_;  // indices into steppers_
+  std::vector<History> history_;
+  std::unique_ptr<OffscreenRenderer> renderer_;
+  std::optional<VideoWriter> video_;
+  std::unique_ptr<mjvFigure> figure_;
+  long frame_ = 0;
+};
+
+}  // namespace mjstepper::tools
+
+#endif  // MJSTEPPER_TOOLS_RENDER_SESSION_H_
