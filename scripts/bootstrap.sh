@@ -8,7 +8,8 @@ here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
 # Why each package is here: see README.md, "Dependencies".
 packages=(g++ cmake ninja-build pkg-config python3-venv libeigen3-dev libgtest-dev libgmock-dev
-          libbenchmark-dev libcli11-dev libfmt-dev libtinyxml2-dev libosmesa6-dev ffmpeg)
+          libbenchmark-dev libcli11-dev libfmt-dev libtinyxml2-dev libosmesa6-dev libpng-dev
+          ffmpeg)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -152,6 +152,9 @@ int main(int argc, char** argv) {
   plot_cmd->add_option("--out", plot_out, "PNG")->required();
   plot_cmd->add_option("--labels", plot_labels, "one label per sweep CSV");
   plot_cmd->add_option("--title", plot_title, "title");
+  bool versus_speed = false;
+  plot_cmd->add_flag("--versus-speed", versus_speed,
+                     "run logs: velocity errors against commanded speed instead of time");
 
   std::string info_model;
   CLI::App* info_cmd = app.add_subcommand("info", "list the steppers of a model and check it");
@@ -193,7 +196,8 @@ int main(int argc, char** argv) {
       if (!sweep_csv && plot_csvs.size() != 1) {
         throw std::invalid_argument("plot: give one run log, or any number of sweep CSVs");
       }
-      Plot(sweep_csv ? "sweep" : "log", plot_csvs, plot_labels, plot_out, plot_title);
+      Plot(sweep_csv ? "sweep" : "log", plot_csvs, plot_labels, plot_out, plot_title,
+           versus_speed && !sweep_csv);
       fmt::print("wrote {}\n", plot_out);
       return 0;
     }

@@ -48,7 +48,11 @@ OffscreenRenderer::OffscreenRenderer(const mjModel* m, const RendererOptions& op
   mjv_defaultOption(&c.option);
   mjr_defaultContext(&c.render);
   mjv_makeScene(m, &c.scene, 2000);
-  mjr_makeContext(c.sized_model, &c.render, mjFONTSCALE_150);
+  // Text in proportion to the frame: 50 % below 640 pixels wide, 100 % to 1600, 150 % above.
+  const int font = options.width < 640    ? mjFONTSCALE_50
+                   : options.width < 1600 ? mjFONTSCALE_100
+                                          : mjFONTSCALE_150;
+  mjr_makeContext(c.sized_model, &c.render, font);
   mjr_setBuffer(mjFB_OFFSCREEN, &c.render);
   if (c.render.currentBuffer != mjFB_OFFSCREEN) {
     throw std::runtime_error("MuJoCo's offscreen framebuffer is not available in this GL context");

@@ -25,8 +25,8 @@ std::string Quote(const std::string& s) {
 }  // namespace
 
 void Plot(const std::string& kind, const std::vector<std::string>& csvs,
-          const std::vector<std::string>& labels, const std::string& png,
-          const std::string& title) {
+          const std::vector<std::string>& labels, const std::string& png, const std::string& title,
+          bool versus_speed) {
   const char* python = std::getenv("MJSTEPPER_PYTHON");
   std::string command = fmt::format("{} {} {}", Quote(python ? python : MJSTEPPER_PYTHON),
                                     Quote(MJSTEPPER_PLOT_SCRIPT), kind);
@@ -37,6 +37,7 @@ void Plot(const std::string& kind, const std::vector<std::string>& csvs,
   }
   command += fmt::format(" --out {}", Quote(png));
   if (!title.empty()) command += fmt::format(" --title {}", Quote(title));
+  if (versus_speed) command += " --versus speed";
   if (std::system(command.c_str()) != 0) {
     throw std::runtime_error(fmt::format("plotting failed: {}", command));
   }

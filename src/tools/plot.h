@@ -10,9 +10,10 @@ namespace mjstepper::tools {
 
 /// Plots a runner log (kind "log") or sweeps (kind "sweep", one label per CSV) into `png`.
 /// Throws std::runtime_error with the command when the plotter fails.
+/// `versus_speed` (logs only): velocity errors against commanded speed instead of time.
 void Plot(const std::string& kind, const std::vector<std::string>& csvs,
           const std::vector<std::string>& labels, const std::string& png,
-          const std::string& title = "");
+          const std::string& title = "", bool versus_speed = false);
 
 }  // namespace mjstepper::tools
 

@@ -257,6 +257,45 @@ TEST(StepperPlugin, StaticFrictionSticksBelowFsAndSlipsAbove) {
   }
 }
 
+// The load-angle gauge (visualize callback): two arrows per stepper in the scene, the rotor's at
+// −δ from the command's about the joint axis, so the angle between them is the load angle; none
+// with gauge="off".
+TEST(StepperPlugin, GaugeShowsTheLoadAngle) {
+  for (const char* gauge : {"on", "off"}) {
+    const ModelPtr m = LoadModel(RotorModel(TsuiActuator(
+        "m1", "j1",
+        Config("drive", "ideal_current") + Config("detent", "none") + Config("gauge", gauge))));
+    ASSERT_TRUE(m);
+    const DataPtr d(mj_makeData(m.get()));
+    d->ctrl[0] = 0.01;  // rad: the drive starts at rest on θcmd = 0.01 with the rotor at 0
+    mj_forward(m.get(), d.get());
+    mjvScene scene;
+    mjv_defaultScene(&scene);
+    mjv_makeScene(m.get(), &scene, 100);
+    mjvOption option;
+    mjv_defaultOption(&option);
+    mjvCamera camera;
+    mjv_defaultCamera(&camera);
+    mjv_updateScene(m.get(), d.get(), &option, nullptr, &camera, mjCAT_ALL, &scene);
+    std::vector<const mjvGeom*> arrows;
+    for (int g = 0; g < scene.ngeom; ++g) {
+      if (scene.geoms[g].type == mjGEOM_ARROW) arrows.push_back(&scene.geoms[g]);
+    }
+    if (std::string(gauge) == "off") {
+      EXPECT_TRUE(arrows.empty());
+    } else {
+      ASSERT_EQ(arrows.size(), 2u);
+      // Directions: each arrow's z axis (third column of its row-major matrix), in the x-y plane.
+      const double command = std::atan2(arrows[0]->mat[5], arrows[0]->mat[2]);
+      const double rotor = std::atan2(arrows[1]->mat[5], arrows[1]->mat[2]);
+      const double delta = 50 * 0.01;  // Nr·(θcmd − θ), electrical rad
+      // float matrices: 1e-5 rad
+      EXPECT_NEAR(std::remainder(command - rotor, kTwoPi), delta, 1e-5);
+    }
+    mjv_freeScene(&scene);
+  }
+}
+
 struct BadConfig {
   const char* key;
   const char* value;

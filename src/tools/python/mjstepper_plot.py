@@ -3,6 +3,9 @@
 
   mjstepper_plot.py log RUN.csv --out RUN.png          runner log: speed, velocity error, currents,
                                                        load angle of every stepper against time
+  mjstepper_plot.py log RUN.csv --versus speed --out E.png
+                                                       every stepper's velocity error against its
+                                                       commanded speed
   mjstepper_plot.py sweep A.csv [B.csv ...] --labels "no damping" "all damped" --out SWEEP.png
                                                        sweeps: velocity-error ripple against speed
 
@@ -69,6 +72,23 @@ def plot_log(path, out, title=None):
     save(fig, out)
 
 
+def plot_versus_speed(path, out, title=None):
+    """Every stepper's velocity error against its commanded speed, in one axes (ramps)."""
+    header, c = read_csv(path)
+    fig, ax = plt.subplots(figsize=(9, 4.8))
+    for name in steppers_of(header):
+        speed = [w * RPM for w in c[f"{name}:omega_cmd[rad/s]"]]
+        error = [e * RPM for e in c[f"{name}:velocity_error[rad/s]"]]
+        ax.plot(speed, error, lw=0.5, label=name)
+    ax.set_xlabel("commanded speed (r/min)")
+    ax.set_ylabel("velocity error (r/min)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title or os.path.basename(path))
+    fig.tight_layout()
+    save(fig, out)
+
+
 def plot_sweep(paths, labels, out, title=None):
     fig, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
     for path, label in zip(paths, labels):
@@ -94,13 +114,17 @@ def main(argv):
     log.add_argument("csv")
     log.add_argument("--out", required=True)
     log.add_argument("--title")
+    log.add_argument("--versus", choices=["time", "speed"], default="time",
+                     help="x axis: time (all signals) or commanded speed (velocity errors)")
     sweep = sub.add_parser("sweep")
     sweep.add_argument("csv", nargs="+")
     sweep.add_argument("--labels", nargs="+")
     sweep.add_argument("--out", required=True)
     sweep.add_argument("--title")
     args = parser.parse_args(argv)
-    if args.kind == "log":
+    if args.kind == "log" and args.versus == "speed":
+        plot_versus_speed(args.csv, args.out, args.title)
+    elif args.kind == "log":
         plot_log(args.csv, args.out, args.title)
     else:
         labels = args.labels or [os.path.basename(p) for p in args.csv]
