@@ -213,11 +213,11 @@ void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double c
       if (t_end <= t) return;
       if (config_.solver == WindingSolver::kExact) {
         const WindingInterval piece(motor, current, voltage, theta_at(t), omega);
-        const IntervalEnergy e = piece.Energy(t_end - t);
+        IntervalEnergy e;
+        current = piece.EndOfInterval(t_end - t, &e);
         s->energy_input += e.input;
         s->energy_copper += e.copper;
         s->energy_mechanical += e.mechanical;
-        current = piece.CurrentAt(t_end - t);
       } else {
         current = IntegrateWindingRk4(motor, current, voltage, theta_at(t), omega, t_end - t,
                                       config_.rk4_step);

@@ -32,6 +32,10 @@ class WindingInterval {
   /// exponentials), so S-8 holds to round-off: a test of the solution, not of a quadrature.
   IntervalEnergy Energy(double h) const;
 
+  /// The current at the interval's end, t = h (as CurrentAt(h)), and, if `energy` is not null, the
+  /// interval's energies (as Energy(h)), sharing their exponentials.
+  PhaseVector EndOfInterval(double h, IntervalEnergy* energy) const;
+
  private:
   // i(t) = steady_ + emf_·e^{jΩt} + transient_·e^{−a·t},  Ω = Nr·ω,  a = R/L.
   const MotorParams& p_;
