@@ -63,8 +63,19 @@ void RenderSession::Step(double t, const std::vector<StepperSample>& samples, mj
   }
   // Frame k shows simulated time k·playback/fps: render each frame whose time has come.
   while (frame_ * options_.playback / options_.fps <= d->time + 1e-12) {
-    RenderFrame(frame_ * options_.playback / options_.fps, d);
+    const double frame_time = frame_ * options_.playback / options_.fps;
+    RenderFrame(frame_time, d);
     ++frame_;
+    // Later frames never look further back than this one did: drop what is older, in bulk.
+    for (History& hist : history_) {
+      const size_t stale =
+          std::lower_bound(hist.time.begin(), hist.time.end(), frame_time - options_.window) -
+          hist.time.begin();
+      if (stale > hist.time.size() / 2) {
+        hist.time.erase(hist.time.begin(), hist.time.begin() + stale);
+        hist.samples.erase(hist.samples.begin(), hist.samples.begin() + stale);
+      }
+    }
   }
 }
 

@@ -52,7 +52,6 @@ SweepPoint RunOne(const mjModel* m, const StepperActuator& s, double speed, cons
     mj_step(m, d);
     if (k >= start) error.push_back(d->actuator_velocity[s.outadr] - profile.Speed(t));
   }
-  std::vector<double> centred = error;
   SweepPoint p;
   p.speed = speed;
   p.rms_error = Rms(error);
