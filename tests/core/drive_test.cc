@@ -173,7 +173,8 @@ TEST(Drive, BridgesClampAndIntegratorDoesNotWindUp) {
 // bridge saturation on the way. The energies are integrated in closed form per interval, so the
 // mismatch is round-off; H6 asks < 1e-4 of the input energy, asserted with that bound.
 TEST(Drive, H6_PowerBalanceOverARun) {
-  for (DriveKind kind : {DriveKind::kVoltageMicrostep, DriveKind::kCurrentMicrostep}) {
+  for (DriveKind kind :
+       {DriveKind::kVoltageMicrostep, DriveKind::kCurrentMicrostep, DriveKind::kServo}) {
     const Drive drive(TsuiConfig(kind, InputMode::kVelocity));
     DriveState s = drive.Rest(0.0, 0.0, 0.0);
     const PhaseVector i0 = s.current();
@@ -185,7 +186,8 @@ TEST(Drive, H6_PowerBalanceOverARun) {
     // The prescribed rotor may drive the motor as a generator (E_in < 0): scale by |E_in|.
     const double scale = std::abs(s.energy_input);
     ASSERT_GT(scale, 0.1);
-    EXPECT_LT(std::abs(mismatch), 1e-4 * scale) << "mismatch " << mismatch << " J";
+    EXPECT_LT(std::abs(mismatch), 1e-4 * scale)
+        << DriveKindName(kind) << ": mismatch " << mismatch << " J";
     EXPECT_LT(std::abs(mismatch), 1e-9 * scale);  // what the closed form achieves
   }
 }
@@ -193,7 +195,8 @@ TEST(Drive, H6_PowerBalanceOverARun) {
 // H8: currents against a reference that runs the same drive with RK4 at 1 µs instead of the exact
 // solution, rotor at 1200 r/min, for each drive: error < 0.1 % of the 3 A rated current.
 TEST(Drive, H8_CurrentsMatchRk4Reference) {
-  for (DriveKind kind : {DriveKind::kVoltageMicrostep, DriveKind::kCurrentMicrostep}) {
+  for (DriveKind kind :
+       {DriveKind::kVoltageMicrostep, DriveKind::kCurrentMicrostep, DriveKind::kServo}) {
     DriveConfig exact_config = TsuiConfig(kind, InputMode::kVelocity);
     DriveConfig reference_config = exact_config;
     reference_config.solver = WindingSolver::kRk4;
@@ -209,8 +212,7 @@ TEST(Drive, H8_CurrentsMatchRk4Reference) {
       reference.Advance(&b, k * h, (k + 1) * h, theta((k + 1) * h), omega);
       max_error = std::max(max_error, std::abs(a.current() - b.current()));
     }
-    EXPECT_LT(max_error, 1e-3 * 3.0)
-        << (kind == DriveKind::kVoltageMicrostep ? "voltage" : "current");
+    EXPECT_LT(max_error, 1e-3 * 3.0) << DriveKindName(kind);
   }
 }
 
