@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include "core/analysis.h"
@@ -63,6 +64,7 @@ TEST(Motor, H5_BackEmfAmplitudeAndFrequency) {
   const Tone a = FitTone(t, ea, 1600.0);
   const Tone b = FitTone(t, eb, 1600.0);
   EXPECT_NEAR(a.amplitude, 60.3, 0.01 * 60.3);
+  std::printf("H5: %.3f V at %.2f Hz\n", a.amplitude, f);
   EXPECT_NEAR(a.amplitude, 0.3 * omega, 1e-9 * a.amplitude);
   EXPECT_NEAR(b.amplitude, a.amplitude, 1e-9 * a.amplitude);
   // ea = −Km·ω·sin x = Km·ω·cos(x + π/2);  eb = Km·ω·cos x.
