@@ -43,13 +43,19 @@ int Info(const std::string& path) {
     fmt::print(
         "  {}: drive {}, input {}\n"
         "    Nr {}, R {:g} Ω, L {:g} H, Km {:g} N·m/A, {} detent harmonic(s)\n"
-        "    rest current {:g} A, holding stiffness T' = Nr·Km·I = {:.4g} N·m/rad\n"
+        "    rest current {:g} A, holding stiffness T' = {} = {:.4g} N·m/rad\n"
         "    rotor-side inertia J = {:.4g} kg·m² → fn = (1/2π)·√(T'/J) = {:.2f} Hz (S-1..S-7)\n",
         s.name, DriveKindName(s.config.kind),
         s.config.input == InputMode::kPosition ? "position (ctrl in rad)"
                                                : "velocity (ctrl in rad/s)",
         p.rotor_teeth, p.resistance, p.inductance, p.torque_constant, p.detent.size(),
-        drive.RestCurrentMagnitude(), stiffness, inertia, fn);
+        drive.RestCurrentMagnitude(),
+        s.config.kind == DriveKind::kServo ? "servo_kp (the position loop)" : "Nr·Km·I", stiffness,
+        inertia, fn);
+    if (s.config.kind == DriveKind::kIdentification) {
+      fmt::print("    identification mode: no holding stiffness; something else turns the shaft\n");
+      continue;
+    }
     for (const DetentHarmonic& dh : p.detent) {
       fmt::print("    detent h = {}: resonance at {:.1f} r/min (h·Nr·n/60 = fn)\n", dh.order,
                  60.0 * fn / (dh.order * p.rotor_teeth));
