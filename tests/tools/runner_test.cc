@@ -150,3 +150,20 @@ TEST(Runner, PlotDrawsALog) {
 }
 
 }  // namespace
+
+namespace {
+
+// `mjstepper identify` prints the estimates as config lines a user can paste.
+TEST(Identify, PrintsPasteableConfig) {
+  const Result r =
+      RunCli("identify " MJSTEPPER_SOURCE_DIR "/models/tsui_identify.xml --speeds 10,30rpm");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, AllOf(HasSubstr("Kd2 = 0.01"), HasSubstr("<config key=\"damping_detent\""),
+                              HasSubstr("<config key=\"friction_compensation\"")));
+  const Result one =
+      RunCli("identify " MJSTEPPER_SOURCE_DIR "/models/tsui_identify.xml --speeds 10rpm");
+  EXPECT_NE(one.status, 0);
+  EXPECT_THAT(one.output, HasSubstr("at least two speeds"));
+}
+
+}  // namespace
