@@ -78,6 +78,14 @@ def speed_figure(log, title, name):
     return save(fig, name)
 
 
+def label_speed_axes(ax, ylabel, title):
+    ax.set_xlabel("commanded speed (r/min)")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+
+
 def envelope(log, bin_rpm=2.5, top=200.0):
     """Peak-to-peak velocity error in bins of commanded speed (r/min)."""
     n = log["shaft:omega_cmd[rad/s]"] * RPM
@@ -123,11 +131,8 @@ def main():
     ax.plot(*ramps["ideal"], lw=1, ls=":", color="k", label="no damping, ideal current source")
     for n in BENCH:
         ax.axvline(n, color="grey", lw=0.6, ls="--")
-    ax.set_xlabel("commanded speed (r/min)")
-    ax.set_ylabel("velocity error p-p per 2.5 r/min (r/min)")
-    ax.set_title("Ramp ripple envelopes (dashed: Tsui's bench resonances 43, 86, 173 r/min)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    label_speed_axes(ax, "velocity error p-p per 2.5 r/min (r/min)",
+                     "Ramp ripple envelopes (dashed: Tsui's bench resonances 43, 86, 173 r/min)")
     figs["envelopes"] = save(fig, "ramp_envelopes.png")
     numbers["bursts"] = {k: [burst(*ramps[k], n) for n in BENCH] for k in ramps}
 
@@ -144,11 +149,8 @@ def main():
     for damping, s in sweeps.items():
         ax.plot(s["speed[r/min]"], s["velocity_error_peak_to_peak[r/min]"], marker=".", lw=1,
                 label=labels[damping])
-    ax.set_xlabel("commanded speed (r/min)")
-    ax.set_ylabel("velocity error p-p (r/min)")
-    ax.set_title("Constant-speed sweep, current microstepping at 1.9 A")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    label_speed_axes(ax, "velocity error p-p (r/min)",
+                     "Constant-speed sweep, current microstepping at 1.9 A")
     figs["sweep"] = save(fig, "sweep.png")
     none = sweeps["none"]
     peaks = []
