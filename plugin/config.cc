@@ -2,287 +2,249 @@
 
 #include <fmt/format.h>
 
-#include <charconv>
+#include <algorithm>
 #include <cmath>
 #include <optional>
-#include <sstream>
 
 #include "core/presets.h"
 
 namespace mjstepper::plugin {
 namespace {
 
-std::string Trim(const std::string& s) {
-  const size_t begin = s.find_first_not_of(" \t\n\r");
-  if (begin == std::string::npos) return "";
-  const size_t end = s.find_last_not_of(" \t\n\r");
-  return s.substr(begin, end - begin + 1);
+using Rule = AttributeSource::Rule;
+
+// The drive's own attributes (controllers declare theirs in their files).
+constexpr AttributeSpec kAttrMotor{
+    "motor", "name", "`tsui2009`", "—",
+    "Preset (SPEC §4): `tsui2009` (hybrid 1.8°, 3 A, 1.27 N·m, detent h = 4, 2, 1), `kim2016` "
+    "(PM, PK268-02B class, reconstructed: Kim's Table 1 is lost), `bodson1993`."};
+constexpr AttributeSpec kAttrDrive{"drive", "name", "`current_microstep`", "—",
+                                   "The controller; see \"Drives\" above."};
+constexpr AttributeSpec kAttrInput{
+    "input", "name", "`position`", "—",
+    "`position`: ctrl is θcmd in rad (rotor side), or the target angle when `profile` is set. "
+    "`velocity`: ctrl is dθcmd/dt in rad/s; the drive integrates θcmd, starting at the rotor's "
+    "angle."};
+constexpr AttributeSpec kAttrRotorTeeth{"rotor_teeth", "integer", "preset (50)", "—",
+                                        "Nr (\"pole pairs\" in Tsui): x = Nr·θ, full step "
+                                        "2π/(4·Nr)."};
+constexpr AttributeSpec kAttrResistance{"resistance", "real", "preset (0.9)", "Ω",
+                                        "R per phase; > 0."};
+constexpr AttributeSpec kAttrInductance{"inductance", "real", "preset (2.2e-3)", "H",
+                                        "L per phase; > 0."};
+constexpr AttributeSpec kAttrTorqueConstant{
+    "torque_constant", "real", "preset (0.3)", "N·m/A (= V·s/rad)",
+    "Km, torque and back-EMF constant; > 0. Datasheet: Km = T_H/(√2·I_rated)."};
+constexpr AttributeSpec kAttrDetent{
+    "detent", "list", "preset", "—, N·m, rad",
+    "Detent harmonics of S-5 as triplets `order amplitude phase` separated by `;`, e.g. `4 0.006 "
+    "0; 2 0.014 3.1416; 1 0.011 1.5708`, or `none`."};
+constexpr AttributeSpec kAttrBusVoltage{
+    "bus_voltage", "real", "48", "V",
+    "Vbus of the bridges: \\|va\\|, \\|vb\\| ≤ Vbus (S-13), or the SVPWM range (S-14); every "
+    "drive is limited by it. Tsui needs ≥ 19 V at 250 r/min, ≥ 145 V at 1920 r/min; Kim's "
+    "supply is 24 V."};
+constexpr AttributeSpec kAttrIsrPeriod{
+    "isr_period", "real", "50e-6", "s",
+    "Interrupt (control) period T: sample and compute at t_k = k·T (absolute time), S-15. May be "
+    "much shorter than the timestep (1e-6: 1 MHz, Kim's continuous-time designs) or longer."};
+constexpr AttributeSpec kAttrComputeDelay{
+    "compute_delay", "real", "25e-6", "s",
+    "D: the voltage computed at t_k applies from t_k + D and is held until t_{k+1} + D (S-15). "
+    "0 ≤ D < T."};
+constexpr AttributeSpec kAttrPowerStage{
+    "power_stage", "name", "`h_bridge`", "—",
+    "`h_bridge`: two full bridges, \\|va\\|, \\|vb\\| ≤ Vbus (S-13). `svpwm`: Tsui's three legs "
+    "with a common return (S-14): linear while max(va, vb, 0) − min(va, vb, 0) ≤ Vbus (a rotating "
+    "vector up to Vbus/√2); beyond, (va, vb) is scaled down keeping its direction and the PI "
+    "integrators hold (anti-windup)."};
+constexpr AttributeSpec kAttrEncoderCounts{
+    "encoder_counts", "integer", "preset (4000, 32000)", "counts/rev",
+    "Encoder (S-16): θmeas = floor(θ·cpr/2π)·2π/cpr, the position feedback of every drive that "
+    "reads one. 0: ideal."};
+constexpr AttributeSpec kAttrVelocityCutoff{
+    "velocity_cutoff", "real", "32", "Hz",
+    "Corner of the first-order low-pass after the backward difference of θmeas at every "
+    "interrupt (S-17)."};
+constexpr AttributeSpec kAttrSpeedFeedback{
+    "speed_feedback", "name", "`estimate` (Tsui's drives), `exact` (`stmms`, `foc`)", "—",
+    "ωfb handed to the controller: `estimate` is S-17; `exact` is the rotor's true speed (the "
+    "ideal sensor of Kim's simulations)."};
+constexpr AttributeSpec kAttrProfile{
+    "profile", "name", "`none`", "—",
+    "The drive's own ramp generator: `none` (ctrl is the command), `trapezoid` or `scurve` "
+    "(jerk-limited): ctrl is the target angle and the drive moves θcmd there within "
+    "`profile_speed`, `profile_accel` (and `profile_jerk`), giving θd, θ̇d, θ̈d exactly to the "
+    "controller. Needs `input` = `position`. Kim's trajectory (SPEC §4): `trapezoid`, speed "
+    "6.2832, accel 12.566, start 0.5, ctrl 15.708."};
+constexpr AttributeSpec kAttrProfileSpeed{"profile_speed", "real", "6.2832 (1 rev/s)", "rad/s",
+                                          "Speed limit of the profile (rotor side); > 0."};
+constexpr AttributeSpec kAttrProfileAccel{
+    "profile_accel", "real", "12.566", "rad/s²",
+    "Acceleration limit; ramp time = `profile_speed`/`profile_accel`. > 0."};
+constexpr AttributeSpec kAttrProfileJerk{"profile_jerk", "real", "1000", "rad/s³",
+                                         "Jerk limit of `scurve`; > 0."};
+constexpr AttributeSpec kAttrProfileStart{"profile_start", "real", "0", "s",
+                                          "No move starts before this simulation time."};
+constexpr AttributeSpec kAttrGauge{
+    "gauge", "name", "`on`", "—",
+    "`on`: draw the load-angle gauge on the rotor in every MuJoCo scene (viewer, renders): a "
+    "long thin green arrow for the commanded electrical angle and a short thick magenta one for "
+    "the rotor's; the angle between them is δ, and a magenta arrow sweeping full turns is lost "
+    "steps. `off`: draw nothing."};
+
+const std::vector<const AttributeSpec*>& DriveAttributes() {
+  static const std::vector<const AttributeSpec*> list = {
+      &kAttrMotor,         &kAttrDrive,          &kAttrInput,          &kAttrRotorTeeth,
+      &kAttrResistance,    &kAttrInductance,     &kAttrTorqueConstant, &kAttrDetent,
+      &kAttrBusVoltage,    &kAttrIsrPeriod,      &kAttrComputeDelay,   &kAttrPowerStage,
+      &kAttrEncoderCounts, &kAttrVelocityCutoff, &kAttrSpeedFeedback,  &kAttrProfile,
+      &kAttrProfileSpeed,  &kAttrProfileAccel,   &kAttrProfileJerk,    &kAttrProfileStart,
+      &kAttrGauge};
+  return list;
 }
 
-// An error that names the attribute, quotes the value and states the rule.
-struct ConfigError {
-  std::string message;
-};
-
-ConfigError Bad(const char* name, const std::string& value, const std::string& rule) {
-  return {fmt::format("{} = \"{}\": {}", name, value, rule)};
-}
-
-class Reader {
- public:
-  explicit Reader(const AttributeReader& read) : read_(read) {}
-
-  std::optional<std::string> Raw(const char* name) const {
-    const char* value = read_(name);
-    if (value == nullptr || value[0] == '\0') return std::nullopt;
-    return std::string(value);
-  }
-
-  // Overwrites *out when the attribute is set; checks `valid` on the result.
-  template <typename Check>
-  void Number(const char* name, const char* unit, const char* rule, Check valid,
-              double* out) const {
-    const std::optional<std::string> raw = Raw(name);
-    if (!raw) return;
-    double value = 0;
-    if (!ParseFiniteDouble(*raw, &value)) {
-      throw Bad(name, *raw, fmt::format("not a finite number; write e.g. 1.5 (unit: {})", unit));
-    }
-    if (!valid(value)) throw Bad(name, *raw, fmt::format("{} ({})", rule, unit));
-    *out = value;
-  }
-
- private:
-  const AttributeReader& read_;
-};
-
-std::vector<DetentHarmonic> ParseDetent(const char* name, const std::string& raw) {
-  const std::string text = Trim(raw);
-  if (text == "none") return {};
-  const char* rule =
-      "expected \"none\" or triplets \"order amplitude phase\" (-, N·m, rad) separated by "
-      "';', e.g. \"4 0.006 0; 2 0.014 3.1416\"";
-  std::vector<DetentHarmonic> harmonics;
-  std::stringstream groups(text);
-  std::string group;
-  while (std::getline(groups, group, ';')) {
-    std::stringstream fields(Trim(group));
-    std::string field;
-    std::vector<double> values;
-    while (fields >> field) {
-      double v = 0;
-      if (!ParseFiniteDouble(field, &v)) throw Bad(name, raw, rule);
-      values.push_back(v);
-    }
-    if (values.size() != 3) throw Bad(name, raw, rule);
-    if (values[0] < 1 || values[0] != std::floor(values[0]) || values[0] > 1000) {
-      throw Bad(name, raw, "harmonic order must be an integer in [1, 1000]");
-    }
-    if (values[1] < 0) throw Bad(name, raw, "amplitude must be >= 0 (N·m)");
-    harmonics.push_back(
-        {.order = static_cast<int>(values[0]), .amplitude = values[1], .phase = values[2]});
-  }
-  if (harmonics.empty()) throw Bad(name, raw, rule);
-  return harmonics;
-}
-
-// `damping`: "none", "all", or harmonic orders "4 2 1", each of which must be in `estimates`.
-std::vector<DetentHarmonic> SelectDamping(const std::string& raw,
-                                          const std::vector<DetentHarmonic>& estimates) {
-  const std::string text = Trim(raw);
-  if (text == "none") return {};
-  if (text == "all") return estimates;
-  std::vector<DetentHarmonic> selected;
-  std::stringstream fields(text);
-  std::string field;
-  while (fields >> field) {
-    double order = 0;
-    if (!ParseFiniteDouble(field, &order)) {
-      throw Bad(kAttrDamping, raw, "expected none, all, or harmonic orders such as \"4 2 1\"");
-    }
-    bool found = false;
-    for (const DetentHarmonic& h : estimates) {
-      if (h.order == order) {
-        selected.push_back(h);
-        found = true;
-      }
-    }
-    if (!found) {
-      throw Bad(
-          kAttrDamping, raw,
-          fmt::format("harmonic {} is not in damping_detent (nor the motor's detent)", field));
-    }
-  }
-  return selected;
-}
-
-DriveConfig Parse(const AttributeReader& read) {
-  const Reader r(read);
+DriveConfig Parse(const AttributeSource& a) {
   DriveConfig c;
-
-  const std::string motor = r.Raw(kAttrMotor).value_or("tsui2009");
-  const std::optional<Preset> preset = FindPreset(Trim(motor));
+  const std::string motor = a.Raw(kAttrMotor).value_or("tsui2009");
+  const std::optional<Preset> preset = FindPreset(motor);
   if (!preset) {
-    std::string names;
-    for (const std::string& n : PresetNames()) names += (names.empty() ? "" : ", ") + n;
-    throw Bad(kAttrMotor, motor, "unknown preset; known: " + names);
+    ThrowBad(kAttrMotor, motor, fmt::format("unknown preset; known: {}",
+                                            fmt::join(PresetNames(), ", ")));
   }
   c.motor = preset->motor;
+  c.motor.rotor_teeth = a.Integer(kAttrRotorTeeth, c.motor.rotor_teeth, 1, 1000);
+  c.motor.resistance = a.Real(kAttrResistance, c.motor.resistance, Rule::kPositive);
+  c.motor.inductance = a.Real(kAttrInductance, c.motor.inductance, Rule::kPositive);
+  c.motor.torque_constant = a.Real(kAttrTorqueConstant, c.motor.torque_constant, Rule::kPositive);
+  c.motor.detent = a.Harmonics(kAttrDetent).value_or(c.motor.detent);
 
-  if (const auto drive = r.Raw(kAttrDrive)) {
-    const std::string d = Trim(*drive);
-    bool known = false;
-    for (DriveKind kind :
-         {DriveKind::kVoltageMicrostep, DriveKind::kCurrentMicrostep, DriveKind::kIdealCurrent,
-          DriveKind::kServo, DriveKind::kIdentification}) {
-      if (d == DriveKindName(kind)) {
-        c.kind = kind;
-        known = true;
-      }
-    }
-    if (!known) {
-      throw Bad(kAttrDrive, *drive,
-                "unknown drive; known: voltage_microstep, current_microstep, ideal_current, servo, "
-                "identification");
-    }
-  }
-  if (const auto input = r.Raw(kAttrInput)) {
-    const std::string i = Trim(*input);
-    if (i == "position") {
-      c.input = InputMode::kPosition;
-    } else if (i == "velocity") {
-      c.input = InputMode::kVelocity;
-    } else {
-      throw Bad(kAttrInput, *input, "must be position (ctrl in rad) or velocity (ctrl in rad/s)");
-    }
-  }
-
-  auto positive = [](double v) { return v > 0; };
-  auto non_negative = [](double v) { return v >= 0; };
-  double teeth = c.motor.rotor_teeth;
-  r.Number(
-      kAttrRotorTeeth, "-", "must be an integer in [1, 1000]",
-      [](double v) { return v >= 1 && v <= 1000 && v == std::floor(v); }, &teeth);
-  c.motor.rotor_teeth = static_cast<int>(teeth);
-  r.Number(kAttrResistance, "Ω", "must be > 0", positive, &c.motor.resistance);
-  r.Number(kAttrInductance, "H", "must be > 0", positive, &c.motor.inductance);
-  r.Number(kAttrTorqueConstant, "N·m/A", "must be > 0", positive, &c.motor.torque_constant);
-  if (const auto detent = r.Raw(kAttrDetent)) c.motor.detent = ParseDetent(kAttrDetent, *detent);
-  r.Number(kAttrBusVoltage, "V", "must be > 0", positive, &c.bus_voltage);
-  r.Number(kAttrVoltageAmplitude, "V", "must be > 0", positive, &c.voltage_amplitude);
-  if (c.kind == DriveKind::kVoltageMicrostep && c.voltage_amplitude > c.bus_voltage) {
-    throw Bad(kAttrVoltageAmplitude, r.Raw(kAttrVoltageAmplitude).value_or("24"),
-              fmt::format("must be <= bus_voltage = {} for voltage_microstep (V)", c.bus_voltage));
-  }
-  r.Number(kAttrHoldCurrent, "A", "must be > 0", positive, &c.hold_current);
-  r.Number(kAttrKp, "V/A", "must be >= 0", non_negative, &c.kp);
-  r.Number(kAttrKi, "V/A per tick", "must be >= 0", non_negative, &c.ki_per_tick);
-  r.Number(kAttrIsrPeriod, "s", "must be > 0", positive, &c.isr_period);
-  r.Number(kAttrComputeDelay, "s", "must be >= 0", non_negative, &c.compute_delay);
+  c.input = a.Choice(kAttrInput, "position", {"position", "velocity"}) == "velocity"
+                ? InputMode::kVelocity
+                : InputMode::kPosition;
+  c.bus_voltage = a.Real(kAttrBusVoltage, c.bus_voltage, Rule::kPositive);
+  c.isr_period = a.Real(kAttrIsrPeriod, c.isr_period, Rule::kPositive);
+  c.compute_delay = a.Real(kAttrComputeDelay, c.compute_delay, Rule::kNonNegative);
   if (!(c.compute_delay < c.isr_period)) {
-    throw Bad(kAttrComputeDelay, r.Raw(kAttrComputeDelay).value_or("25e-6"),
-              fmt::format("must be < isr_period = {} (s)", c.isr_period));
+    ThrowBad(kAttrComputeDelay, a.Raw(kAttrComputeDelay).value_or("25e-6"),
+             fmt::format("must be < isr_period = {} (s)", c.isr_period));
   }
-  if (const auto stage = r.Raw(kAttrPowerStage)) {
-    const std::string p = Trim(*stage);
-    if (p == "h_bridge") {
-      c.power_stage = PowerStageKind::kTwoHBridges;
-    } else if (p == "svpwm") {
-      c.power_stage = PowerStageKind::kThreeLegSvpwm;
-    } else {
-      throw Bad(kAttrPowerStage, *stage, "must be h_bridge (S-13) or svpwm (S-14)");
+  c.power_stage = a.Choice(kAttrPowerStage, "h_bridge", {"h_bridge", "svpwm"}) == "svpwm"
+                      ? PowerStageKind::kThreeLegSvpwm
+                      : PowerStageKind::kTwoHBridges;
+  c.encoder_counts = a.Integer(kAttrEncoderCounts, preset->encoder_counts, 0, 1000000000);
+  c.velocity_cutoff = a.Real(kAttrVelocityCutoff, c.velocity_cutoff, Rule::kPositive);
+  if (const auto feedback = a.Raw(kAttrSpeedFeedback)) {
+    c.speed_feedback = a.Choice(kAttrSpeedFeedback, "", {"estimate", "exact"}) == "exact"
+                           ? SpeedFeedback::kExact
+                           : SpeedFeedback::kEstimate;
+  }
+  const std::string profile = a.Choice(kAttrProfile, "none", {"none", "trapezoid", "scurve"});
+  c.profile.kind = profile == "trapezoid" ? ProfileKind::kTrapezoid
+                   : profile == "scurve"  ? ProfileKind::kSCurve
+                                          : ProfileKind::kNone;
+  c.profile.max_speed = a.Real(kAttrProfileSpeed, c.profile.max_speed, Rule::kPositive);
+  c.profile.max_accel = a.Real(kAttrProfileAccel, c.profile.max_accel, Rule::kPositive);
+  c.profile.max_jerk = a.Real(kAttrProfileJerk, c.profile.max_jerk, Rule::kPositive);
+  c.profile.start_time = a.Real(kAttrProfileStart, 0.0, Rule::kNonNegative);
+  if (c.profile.kind != ProfileKind::kNone && c.input != InputMode::kPosition) {
+    ThrowBad(kAttrProfile, profile,
+             "a motion profile moves to a target angle: it needs input = position (ctrl in rad)");
+  }
+  for (const AttributeSpec* spec : {&kAttrProfileSpeed, &kAttrProfileAccel, &kAttrProfileJerk,
+                                    &kAttrProfileStart}) {
+    if (c.profile.kind == ProfileKind::kNone && a.Raw(*spec)) {
+      ThrowBad(*spec, *a.Raw(*spec), "has no effect without profile = trapezoid or scurve");
     }
   }
-  const std::vector<DetentHarmonic> estimates =
-      r.Raw(kAttrDampingDetent) ? ParseDetent(kAttrDampingDetent, *r.Raw(kAttrDampingDetent))
-                                : c.motor.detent;
-  if (const auto damping = r.Raw(kAttrDamping)) c.damping = SelectDamping(*damping, estimates);
 
-  double counts = preset->encoder_counts;
-  r.Number(
-      kAttrEncoderCounts, "counts/rev", "must be an integer in [0, 1e9] (0: ideal)",
-      [](double v) { return v >= 0 && v <= 1e9 && v == std::floor(v); }, &counts);
-  c.encoder_counts = static_cast<int>(counts);
-  r.Number(kAttrVelocityCutoff, "Hz", "must be > 0", positive, &c.velocity_cutoff);
-  r.Number(kAttrPositionPeriod, "s", "must be > 0", positive, &c.position_period);
-  const double ratio = c.position_period / c.isr_period;
-  if (!(ratio >= 1 && std::abs(ratio - std::round(ratio)) < 1e-9 * ratio)) {
-    throw Bad(kAttrPositionPeriod, r.Raw(kAttrPositionPeriod).value_or("250e-6"),
-              fmt::format("must be a whole multiple of isr_period = {} (s)", c.isr_period));
+  const std::vector<std::string> names = ControllerNames();
+  const std::string drive = a.Choice(kAttrDrive, "current_microstep", names);
+  const DriveConstants constants{.rotor_teeth = c.motor.rotor_teeth,
+                                 .resistance = c.motor.resistance,
+                                 .inductance = c.motor.inductance,
+                                 .torque_constant = c.motor.torque_constant,
+                                 .isr_period = c.isr_period};
+  c.controller = MakeController(drive, a, c.motor, constants);
+  // An attribute the chosen controller does not read is a mistake, not a silent no-op.
+  const std::vector<const AttributeSpec*> used = ControllerAttributes(drive);
+  for (const AttributeSpec* spec : AllControllerAttributes()) {
+    if (std::find(used.begin(), used.end(), spec) != used.end()) continue;
+    if (const auto raw = a.Raw(*spec)) {
+      ThrowBad(*spec, *raw,
+               fmt::format("not read by drive {} (read by {})", drive,
+                           fmt::join(ControllersReading(spec->name), ", ")));
+    }
   }
-  r.Number(kAttrServoKp, "N·m/rad", "must be >= 0", non_negative, &c.servo_kp);
-  r.Number(kAttrServoKi, "N·m/(rad·s)", "must be >= 0", non_negative, &c.servo_ki);
-  r.Number(kAttrServoKv, "N·m·s/rad", "must be >= 0", non_negative, &c.servo_kv);
-  c.friction_compensation = preset->motor.static_friction;
-  r.Number(kAttrFrictionCompensation, "N·m", "must be >= 0", non_negative,
-           &c.friction_compensation);
+  if (const auto* v = std::get_if<VoltageMicrostep>(&c.controller);
+      v != nullptr && v->voltage_amplitude > c.bus_voltage) {
+    ThrowBad(kAttrVoltageAmplitude, fmt::format("{}", v->voltage_amplitude),
+             fmt::format("must be <= bus_voltage = {} for voltage_microstep (V)", c.bus_voltage));
+  }
   Validate(c);  // the core's own checks, as a backstop
   return c;
 }
 
 }  // namespace
 
+const std::vector<const AttributeSpec*>& AttributeTable() {
+  static const std::vector<const AttributeSpec*> table = [] {
+    std::vector<const AttributeSpec*> all = DriveAttributes();
+    for (const AttributeSpec* spec : AllControllerAttributes()) all.push_back(spec);
+    return all;
+  }();
+  return table;
+}
+
 const std::vector<const char*>& AttributeNames() {
-  static const std::vector<const char*> names = {kAttrMotor,
-                                                 kAttrDrive,
-                                                 kAttrInput,
-                                                 kAttrRotorTeeth,
-                                                 kAttrResistance,
-                                                 kAttrInductance,
-                                                 kAttrTorqueConstant,
-                                                 kAttrDetent,
-                                                 kAttrBusVoltage,
-                                                 kAttrVoltageAmplitude,
-                                                 kAttrHoldCurrent,
-                                                 kAttrKp,
-                                                 kAttrKi,
-                                                 kAttrIsrPeriod,
-                                                 kAttrComputeDelay,
-                                                 kAttrPowerStage,
-                                                 kAttrDamping,
-                                                 kAttrDampingDetent,
-                                                 kAttrEncoderCounts,
-                                                 kAttrVelocityCutoff,
-                                                 kAttrPositionPeriod,
-                                                 kAttrServoKp,
-                                                 kAttrServoKi,
-                                                 kAttrServoKv,
-                                                 kAttrFrictionCompensation,
-                                                 kAttrGauge};
+  static const std::vector<const char*> names = [] {
+    std::vector<const char*> list;
+    for (const AttributeSpec* spec : AttributeTable()) list.push_back(spec->name);
+    return list;
+  }();
   return names;
 }
 
-bool ParseFiniteDouble(const std::string& text, double* value) {
-  const std::string t = Trim(text);
-  if (t.empty()) return false;
-  const char* begin = t.data();
-  const char* end = t.data() + t.size();
-  if (*begin == '+') ++begin;  // from_chars rejects a leading '+'
-  const auto [ptr, ec] = std::from_chars(begin, end, *value);
-  return ec == std::errc() && ptr == end && std::isfinite(*value);
+std::variant<DriveConfig, std::string> ParseConfig(const AttributeReader& read) {
+  try {
+    return Parse(AttributeSource(read));
+  } catch (const std::exception& e) {
+    return std::string(e.what());
+  }
 }
 
 std::variant<StepperConfig, std::string> ParseStepperConfig(const AttributeReader& read) {
   std::variant<DriveConfig, std::string> drive = ParseConfig(read);
   if (std::string* error = std::get_if<std::string>(&drive)) return *error;
   StepperConfig c{.drive = std::get<DriveConfig>(drive)};
-  const Reader r(read);
-  if (const auto gauge = r.Raw(kAttrGauge)) {
-    const std::string g = Trim(*gauge);
-    if (g != "on" && g != "off") return Bad(kAttrGauge, *gauge, "must be on or off").message;
-    c.gauge = g == "on";
+  try {
+    c.gauge = AttributeSource(read).Choice(kAttrGauge, "on", {"on", "off"}) == "on";
+  } catch (const std::exception& e) {
+    return std::string(e.what());
   }
   return c;
 }
 
-std::variant<DriveConfig, std::string> ParseConfig(const AttributeReader& read) {
-  try {
-    return Parse(read);
-  } catch (const ConfigError& e) {
-    return e.message;
-  } catch (const std::exception& e) {
-    return std::string(e.what());
+std::string AttributeTableMarkdown() {
+  std::string out =
+      "| Attribute | Type | Default | Unit | Read by | Meaning |\n"
+      "|---|---|---|---|---|---|\n";
+  const std::vector<const AttributeSpec*>& own = DriveAttributes();
+  for (const AttributeSpec* spec : AttributeTable()) {
+    const bool common = std::find(own.begin(), own.end(), spec) != own.end();
+    const std::string readers =
+        common ? "all" : fmt::format("{}", fmt::join(ControllersReading(spec->name), ", "));
+    out += fmt::format("| `{}` | {} | {} | {} | {} | {} |\n", spec->name, spec->type,
+                       spec->default_text, spec->unit, readers, spec->meaning);
   }
+  return out;
+}
+
+std::string DriveListMarkdown() {
+  std::string out;
+  ForEachControllerType(
+      [&]<class C>() { out += fmt::format("- `{}`: {}\n", C::kName, C::kSummary); });
+  return out;
 }
 
 }  // namespace mjstepper::plugin

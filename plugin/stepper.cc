@@ -16,6 +16,15 @@ namespace {
 
 static_assert(sizeof(mjtNum) == sizeof(double), "DriveState is stored as mjtNum");
 
+// The state layout of an instance's drive, from its config (0 doubles if the config is bad: init
+// then fails with the message).
+int DriveStateSize(const mjModel* m, int instance) {
+  const auto parsed = ParseConfig(
+      [m, instance](const char* name) { return mj_getPluginConfig(m, instance, name); });
+  if (const DriveConfig* c = std::get_if<DriveConfig>(&parsed)) return MakeStateLayout(*c).total();
+  return 0;
+}
+
 std::string NameOf(const mjModel* m, int adr) { return adr >= 0 ? m->names + adr : ""; }
 
 // Who an error is about: "instance 'x'", "actuator 'shaft' (id 0)" or "sensor 'probe' (id 2)".
@@ -134,7 +143,8 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
 }
 
 int Stepper::StateSize(const mjModel* m, int instance) {
-  return kDriveStateSize * static_cast<int>(BoundActuators(m, instance).size());
+  const int actuators = static_cast<int>(BoundActuators(m, instance).size());
+  return actuators == 0 ? 0 : actuators * DriveStateSize(m, instance);
 }
 
 void Stepper::Reset(const mjModel* m, mjtNum* plugin_state, int instance) {
@@ -151,11 +161,11 @@ double Stepper::Command(const mjModel* m, const mjData* d, const Actuator& a) co
 }
 
 mjtNum* Stepper::Slot(const mjModel* m, const mjData* d, int instance, int slot) const {
-  return d->plugin_state + m->plugin_stateadr[instance] + slot * kDriveStateSize;
+  return d->plugin_state + m->plugin_stateadr[instance] + slot * drive_->layout().total();
 }
 
 DriveState Stepper::CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const {
-  DriveState state = LoadState(Slot(m, d, instance, slot));
+  DriveState state = drive_->Load(Slot(m, d, instance, slot));
   if (!state.started) {
     const Actuator& a = actuators_[slot];
     state = drive_->Rest(d->time, d->actuator_length[a.outadr], Command(m, d, a));
@@ -183,7 +193,7 @@ void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
   const double t0 = t1 - m->opt.timestep;
   for (size_t slot = 0; slot < actuators_.size(); ++slot) {
     const Actuator& a = actuators_[slot];
-    DriveState state = LoadState(Slot(m, d, instance, slot));
+    DriveState state = drive_->Load(Slot(m, d, instance, slot));
     const double command = Command(m, d, a);
     if (!state.started) {
       // actuator_length still holds the step's start value here (Euler, implicitfast).
@@ -191,7 +201,7 @@ void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
     }
     const double theta1 = a.gear * d->qpos[a.qposadr];  // rad, rotor side, at t1
     drive_->Advance(&state, t0, t1, theta1, command);
-    StoreState(state, Slot(m, d, instance, slot));
+    drive_->Store(state, Slot(m, d, instance, slot));
   }
 }
 
@@ -259,7 +269,7 @@ void Stepper::ComputeProbe(const mjModel* m, mjData* d, int instance) const {
     const int slot = static_cast<int>(it - drive.actuators_.begin());
     const DriveState state = drive.CurrentState(m, d, owner, slot);
     const DriveSignals signals = drive.drive_->Signals(state, d->actuator_length[it->outadr]);
-    const std::array<double, kNumSignals> values = SignalValues(signals, state);
+    const std::array<double, kNumSignals> values = SignalValues(signals);
     std::copy(values.begin(), values.end(), d->sensordata + m->sensor_adr[s]);
   }
 }

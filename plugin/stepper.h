@@ -5,7 +5,7 @@
 //     its own <config>, or a named <instance> shared by several actuators): actuator capability;
 //   - a signal probe, a <sensor><plugin objtype="actuator" objname="..."> with no config: sensor
 //     capability, reading the signals of the drive on that actuator.
-// State: kDriveStateSize mjtNums per bound actuator in plugin_state; plugin_data holds only the
+// State: the drive's StateLayout (core, controller, profile) per bound actuator in plugin_state; plugin_data holds only the
 // parsed configuration and the actuators' addresses (constant after init).
 #ifndef MJSTEPPER_PLUGIN_STEPPER_H_
 #define MJSTEPPER_PLUGIN_STEPPER_H_
@@ -31,7 +31,7 @@ class Stepper {
   /// Parses and checks the instance; on error warns (naming attribute and value) and returns null.
   static std::unique_ptr<Stepper> Create(const mjModel* m, int instance);
 
-  /// mjtNums of plugin_state for the instance: kDriveStateSize per bound actuator.
+  /// mjtNums of plugin_state for the instance: the drive's layout, per bound actuator.
   static int StateSize(const mjModel* m, int instance);
 
   /// Writes the "not started" state (all zero); the drive starts at rest on first use (SPEC §6).

@@ -20,48 +20,34 @@ void Require(bool ok, const char* name, double value, const char* rule) {
   if (!ok) throw std::invalid_argument(fmt::format("DriveConfig: {} = {}; {}", name, value, rule));
 }
 
+template <class T>
+constexpr int Doubles() {
+  return std::is_empty_v<T> ? 0 : static_cast<int>(sizeof(T) / sizeof(double));
+}
+
+template <class T>
+T Unpack(const double* values) {
+  T t{};
+  if constexpr (!std::is_empty_v<T>) std::memcpy(static_cast<void*>(&t), values, sizeof(T));
+  return t;
+}
+
+template <class T>
+void Pack(const T& t, double* values) {
+  if constexpr (!std::is_empty_v<T>) std::memcpy(values, static_cast<const void*>(&t), sizeof(T));
+}
+
 }  // namespace
-
-const char* DriveKindName(DriveKind kind) {
-  switch (kind) {
-    case DriveKind::kVoltageMicrostep:
-      return "voltage_microstep";
-    case DriveKind::kCurrentMicrostep:
-      return "current_microstep";
-    case DriveKind::kIdealCurrent:
-      return "ideal_current";
-    case DriveKind::kServo:
-      return "servo";
-    case DriveKind::kIdentification:
-      return "identification";
-  }
-  return "?";
-}
-
-DriveState LoadState(const double* values) {
-  DriveState state;
-  std::memcpy(static_cast<void*>(&state), values, sizeof(state));  // trivially copyable
-  return state;
-}
-
-void StoreState(const DriveState& state, double* values) {
-  std::memcpy(values, static_cast<const void*>(&state), sizeof(state));
-}
 
 void Validate(const DriveConfig& c) {
   Validate(c.motor);
   // Each check is written so that NaN fails it.
   Require(c.bus_voltage > 0 && std::isfinite(c.bus_voltage), "bus_voltage", c.bus_voltage,
           "must be finite and > 0 (V)");
-  Require(c.voltage_amplitude > 0 &&
-              (c.kind != DriveKind::kVoltageMicrostep || c.voltage_amplitude <= c.bus_voltage),
-          "voltage_amplitude", c.voltage_amplitude,
-          "must be > 0, and <= bus_voltage for voltage_microstep (V)");
-  Require(c.hold_current > 0 && std::isfinite(c.hold_current), "hold_current", c.hold_current,
-          "must be finite and > 0 (A)");
-  Require(c.kp >= 0 && std::isfinite(c.kp), "kp", c.kp, "must be finite and >= 0 (V/A)");
-  Require(c.ki_per_tick >= 0 && std::isfinite(c.ki_per_tick), "ki", c.ki_per_tick,
-          "must be finite and >= 0 (V/A per tick)");
+  if (const auto* v = std::get_if<VoltageMicrostep>(&c.controller)) {
+    Require(v->voltage_amplitude > 0 && v->voltage_amplitude <= c.bus_voltage,
+            "voltage_amplitude", v->voltage_amplitude, "must be > 0 and <= bus_voltage (V)");
+  }
   Require(c.isr_period > 0 && std::isfinite(c.isr_period), "isr_period", c.isr_period,
           "must be finite and > 0 (s)");
   Require(c.compute_delay >= 0 && c.compute_delay < c.isr_period, "compute_delay", c.compute_delay,
@@ -70,135 +56,125 @@ void Validate(const DriveConfig& c) {
   Require(c.encoder_counts >= 0, "encoder_counts", c.encoder_counts, "must be >= 0 (0: ideal)");
   Require(c.velocity_cutoff > 0 && std::isfinite(c.velocity_cutoff), "velocity_cutoff",
           c.velocity_cutoff, "must be finite and > 0 (Hz)");
-  const double ratio = c.position_period / c.isr_period;
-  Require(ratio >= 1 && std::abs(ratio - std::round(ratio)) < 1e-9 * ratio, "position_period",
-          c.position_period, "must be a whole multiple of isr_period (s)");
-  for (double gain : {c.servo_kp, c.servo_ki, c.servo_kv, c.friction_compensation}) {
-    Require(gain >= 0 && std::isfinite(gain), "servo gain or friction_compensation", gain,
-            "must be finite and >= 0");
+  if (c.profile.kind != ProfileKind::kNone) {
+    Require(c.input == InputMode::kPosition, "input (0: position, 1: velocity)",
+            static_cast<int>(c.input), "a motion profile needs input = position (ctrl = target)");
+    for (double limit : {c.profile.max_speed, c.profile.max_accel, c.profile.max_jerk}) {
+      Require(limit > 0 && std::isfinite(limit), "profile limit", limit, "must be finite and > 0");
+    }
   }
-  MotorParams damping_check = c.motor;
-  damping_check.detent = c.damping;
-  Validate(damping_check);
+}
+
+StateLayout MakeStateLayout(const DriveConfig& c) {
+  StateLayout layout{.core = Doubles<DriveCoreState>()};
+  layout.controller = std::visit(
+      [](const auto& unit) { return Doubles<typename std::decay_t<decltype(unit)>::State>(); },
+      c.controller);
+  layout.profile = c.profile.kind == ProfileKind::kNone ? 0 : Doubles<MotionProfile::State>();
+  return layout;
 }
 
 Drive::Drive(DriveConfig config) : config_(std::move(config)) {
   Validate(config_);
   const MotorParams& motor = config_.motor;
+  constants_ = {.rotor_teeth = motor.rotor_teeth,
+                .resistance = motor.resistance,
+                .inductance = motor.inductance,
+                .torque_constant = motor.torque_constant,
+                .isr_period = config_.isr_period};
+  layout_ = MakeStateLayout(config_);
+  if (layout_.controller + layout_.profile > kMaxUnitState) {
+    throw std::invalid_argument(fmt::format("Drive: {} unit state doubles exceed {}",
+                                            layout_.controller + layout_.profile, kMaxUnitState));
+  }
   stage_ = {.kind = config_.power_stage, .bus_voltage = config_.bus_voltage};
-  const DqCurrentLoop loop{.kp = config_.kp, .ki_per_tick = config_.ki_per_tick};
-  const HarmonicCompensation damping{.harmonics = config_.damping};
-  voltage_controller_ = {.rotor_teeth = motor.rotor_teeth,
-                         .voltage_amplitude = config_.voltage_amplitude};
-  current_controller_ = {.rotor_teeth = motor.rotor_teeth,
-                         .torque_constant = motor.torque_constant,
-                         .hold_current = config_.hold_current,
-                         .damping = damping,
-                         .loop = loop};
-  servo_controller_ = {.rotor_teeth = motor.rotor_teeth,
-                       .torque_constant = motor.torque_constant,
-                       .kp = config_.servo_kp,
-                       .ki = config_.servo_ki,
-                       .kv = config_.servo_kv,
-                       .friction = config_.friction_compensation,
-                       .position_period = config_.position_period,
-                       .identification = config_.kind == DriveKind::kIdentification,
-                       .damping = damping,
-                       .loop = loop};
-  velocity_estimator_ = {.period = config_.isr_period, .cutoff = config_.velocity_cutoff};
-  ticks_per_position_update_ = std::lround(config_.position_period / config_.isr_period);
+  speed_feedback_ = config_.speed_feedback.value_or(DefaultSpeedFeedback(config_.controller));
+  velocity_gain_ = 1.0 - std::exp(-kTwoPi * config_.velocity_cutoff * config_.isr_period);  // S-17
+}
+
+DriveState Drive::Load(const double* values) const {
+  DriveState s;
+  std::memcpy(static_cast<void*>(static_cast<DriveCoreState*>(&s)), values,
+              sizeof(DriveCoreState));
+  std::copy_n(values + layout_.core, layout_.controller + layout_.profile, s.unit.begin());
+  return s;
+}
+
+void Drive::Store(const DriveState& s, double* values) const {
+  std::memcpy(values, static_cast<const void*>(static_cast<const DriveCoreState*>(&s)),
+              sizeof(DriveCoreState));
+  std::copy_n(s.unit.begin(), layout_.controller + layout_.profile, values + layout_.core);
 }
 
 DriveState Drive::Rest(double time, double theta, double command) const {
   DriveState s;
   s.started = 1;
   s.theta = theta;
-  s.theta_cmd = config_.input == InputMode::kPosition ? command : theta;
-  PhaseVector current;
-  switch (config_.kind) {
-    case DriveKind::kVoltageMicrostep:
-      current = voltage_controller_.RestCurrent(s.theta_cmd, config_.motor.resistance);
-      break;
-    case DriveKind::kCurrentMicrostep:
-    case DriveKind::kIdealCurrent: {
-      current = current_controller_.RestCurrent(s.theta_cmd);
-      const PhaseVector integral =
-          current_controller_.RestIntegral(s.theta_cmd, config_.motor.resistance);
-      s.integral_d = integral.real();
-      s.integral_q = integral.imag();
-      break;
-    }
-    case DriveKind::kServo:
-    case DriveKind::kIdentification:
-      current = 0;  // the servo at rest on its command asks for no torque
-      break;
+  const bool holds_command =
+      config_.input == InputMode::kPosition && config_.profile.kind == ProfileKind::kNone;
+  s.theta_cmd = holds_command ? command : theta;
+  const PhaseVector current = std::visit(
+      [&](const auto& unit) {
+        using C = std::decay_t<decltype(unit)>;
+        typename C::State state{};
+        const PhaseVector i = unit.Rest(constants_, {.theta = theta, .theta_cmd = s.theta_cmd},
+                                        &state);
+        Pack(state, s.unit.data());
+        return i;
+      },
+      config_.controller);
+  if (layout_.profile > 0) {
+    Pack(MotionProfile::Rest(time, s.theta_cmd), s.unit.data() + layout_.controller);
   }
   s.theta_meas = EncoderAngle(theta, config_.encoder_counts);
   // At rest v = R·i holds the current constant (S-3 with ω = 0).
   const PhaseVector voltage = config_.motor.resistance * current;
-  s.current_a = current.real();
-  s.current_b = current.imag();
+  s.current_a = s.current_ref_a = current.real();
+  s.current_b = s.current_ref_b = current.imag();
   s.voltage_a = s.pending_a = voltage.real();
   s.voltage_b = s.pending_b = voltage.imag();
   s.next_tick = std::ceil(time / config_.isr_period);
   return s;
 }
 
-void Drive::Tick(DriveState* s, long k, double theta, double theta_cmd, double omega_cmd,
-                 PhaseVector current) const {
-  // Sensors: encoder (S-16) and the backward-difference velocity estimate (S-17), every tick.
-  const double theta_meas = EncoderAngle(theta, config_.encoder_counts);
-  velocity_estimator_.Update(theta_meas, &s->theta_meas, &s->omega_est);
-  const ControlSample sample{.theta_cmd = theta_cmd,
-                             .omega_cmd = omega_cmd,
-                             .current = current,
-                             .theta_fb = theta_meas,
-                             .omega_fb = s->omega_est,
-                             .position_tick = k % ticks_per_position_update_ == 0};
-  PhaseVector integral(s->integral_d, s->integral_q);
-  BridgeOutput out;
-  switch (config_.kind) {
-    case DriveKind::kVoltageMicrostep:
-      out = voltage_controller_.Update(sample, stage_);
-      break;
-    case DriveKind::kCurrentMicrostep:
-    case DriveKind::kIdealCurrent:
-      out = current_controller_.Update(sample, stage_, &integral);
-      break;
-    case DriveKind::kServo:
-    case DriveKind::kIdentification: {
-      ServoState servo{.position_integral = s->position_integral, .iq_cmd = s->iq_cmd};
-      out = servo_controller_.Update(sample, stage_, &integral, &servo);
-      s->position_integral = servo.position_integral;
-      s->iq_cmd = servo.iq_cmd;
-      break;
-    }
-  }
-  s->integral_d = integral.real();
-  s->integral_q = integral.imag();
-  s->pending_a = out.voltage.real();
-  s->pending_b = out.voltage.imag();
-  s->pending = 1;
+void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double command) const {
+  std::visit([&](const auto& unit) { AdvanceWith(unit, s, t0, t1, theta1, command); },
+             config_.controller);
 }
 
-void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double command) const {
+template <class C>
+void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1, double theta1,
+                        double command) const {
   const MotorParams& motor = config_.motor;
   const double h = t1 - t0;                                  // s
   const double theta0 = s->theta;                            // rad
   const double omega = h > 0 ? (theta1 - theta0) / h : 0.0;  // rad/s, constant over the step
+  auto theta_at = [&](double t) { return theta0 + omega * (t - t0); };
+
+  // The command over the step: the profile's plan, or ctrl itself.
+  MotionProfile::State plan;
+  const bool profiled = layout_.profile > 0;
+  if (profiled) {
+    plan = Unpack<MotionProfile::State>(s->unit.data() + layout_.controller);
+    config_.profile.Update(&plan, t0, t1, command);
+  }
   const double theta_cmd0 = s->theta_cmd;
   const double omega_cmd =
       config_.input == InputMode::kVelocity ? command : (h > 0 ? (command - theta_cmd0) / h : 0.0);
-  auto theta_at = [&](double t) { return theta0 + omega * (t - t0); };
-  auto theta_cmd_at = [&](double t) {
-    return config_.input == InputMode::kVelocity ? theta_cmd0 + command * (t - t0) : command;
+  auto command_at = [&](double t) -> CommandSample {
+    if (profiled) return config_.profile.Evaluate(plan, t);
+    if (config_.input == InputMode::kVelocity) {
+      return {.theta = theta_cmd0 + command * (t - t0), .omega = command};
+    }
+    return {.theta = command, .omega = omega_cmd};
   };
 
-  if (config_.kind == DriveKind::kIdealCurrent) {
-    const PhaseVector i = current_controller_.RestCurrent(theta_cmd_at(t1));
-    s->current_a = i.real();
-    s->current_b = i.imag();
+  if constexpr (requires { C::kIdealSource; }) {
+    const PhaseVector i = controller.setpoint.Phase(constants_, command_at(t1).theta);
+    s->current_a = s->current_ref_a = i.real();
+    s->current_b = s->current_ref_b = i.imag();
   } else {
+    typename C::State unit = Unpack<typename C::State>(s->unit.data());
     const double period = config_.isr_period;  // T
     // Tick times k·T and the accumulated simulation time differ by round-off only.
     const double eps = 1e-9 * period;
@@ -224,6 +200,27 @@ void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double c
       }
       t = t_end;
     };
+    // Interrupt k at time t: sample the sensors, run the controller, schedule the new voltage.
+    auto tick = [&](long k) {
+      // Encoder (S-16) and the backward-difference velocity estimate (S-17), every tick.
+      const double theta_meas = EncoderAngle(theta_at(t), config_.encoder_counts);
+      const double raw = (theta_meas - s->theta_meas) / period;
+      s->omega_est += velocity_gain_ * (raw - s->omega_est);
+      s->theta_meas = theta_meas;
+      const Sample sample{
+          .command = command_at(t),
+          .feedback = {.theta = theta_meas,
+                       .omega = speed_feedback_ == SpeedFeedback::kExact ? omega : s->omega_est,
+                       .elec_phasor = UnitPhasor(constants_.rotor_teeth * theta_meas)},
+          .current = current,
+          .tick = k};
+      const TickOutput out = controller.Tick(constants_, C::Input::From(sample), stage_, &unit);
+      s->pending_a = out.bridge.voltage.real();
+      s->pending_b = out.bridge.voltage.imag();
+      s->pending = 1;
+      s->current_ref_a = out.current_ref.real();
+      s->current_ref_b = out.current_ref.imag();
+    };
     constexpr double kNever = std::numeric_limits<double>::infinity();
     while (true) {
       const double t_apply =
@@ -241,7 +238,7 @@ void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double c
         voltage = {s->pending_a, s->pending_b};
         s->pending = 0;
       } else {  // interrupt k: sample, compute v[k]
-        Tick(s, std::lround(s->next_tick), theta_at(t), theta_cmd_at(t), omega_cmd, current);
+        tick(std::lround(s->next_tick));
         s->next_tick += 1;
       }
     }
@@ -249,10 +246,13 @@ void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double c
     s->current_b = current.imag();
     s->voltage_a = voltage.real();
     s->voltage_b = voltage.imag();
+    Pack(unit, s->unit.data());
   }
+  const CommandSample end = command_at(t1);
   s->theta = theta1;
-  s->theta_cmd = theta_cmd_at(t1);
-  s->omega_cmd = omega_cmd;
+  s->theta_cmd = end.theta;
+  s->omega_cmd = profiled ? end.omega : omega_cmd;
+  if (profiled) Pack(plan, s->unit.data() + layout_.controller);
 }
 
 double Drive::Torque(const DriveState& s, double theta) const {
@@ -270,6 +270,8 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
   const PhaseVector dq = ToDq(s.current(), motor.rotor_teeth * s.theta_cmd);  // S-9, ψ = Nr·θcmd
   out.current_d = dq.real();
   out.current_q = dq.imag();
+  out.current_ref_a = s.current_ref_a;
+  out.current_ref_b = s.current_ref_b;
   out.theta_cmd = s.theta_cmd;
   out.omega_cmd = s.omega_cmd;
   out.torque_em = ElectromagneticTorque(motor, theta, s.current());
@@ -277,21 +279,36 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
   out.torque_total = out.torque_em + out.torque_detent;
   out.load_angle = motor.rotor_teeth * (s.theta_cmd - theta);  // S-12
   out.lost_steps = 4.0 * std::round(out.load_angle / kTwoPi);
+  out.energy_input = s.energy_input;
+  out.energy_copper = s.energy_copper;
+  out.energy_mechanical = s.energy_mechanical;
   out.theta_meas = s.theta_meas;
   out.omega_est = s.omega_est;
   return out;
 }
 
 double Drive::RestCurrentMagnitude() const {
-  if (IsServo()) return 0.0;
-  return config_.kind == DriveKind::kVoltageMicrostep
-             ? config_.voltage_amplitude / config_.motor.resistance
-             : config_.hold_current;
+  DriveState s = Rest(0.0, 0.0, 0.0);
+  return std::abs(s.current());
 }
 
 double Drive::HoldingStiffness() const {
-  if (config_.kind == DriveKind::kServo) return config_.servo_kp;  // the position loop's spring
-  return config_.motor.rotor_teeth * config_.motor.torque_constant * RestCurrentMagnitude();
+  const MotorParams& m = config_.motor;
+  return std::visit(
+      [&](const auto& unit) -> double {
+        using C = std::decay_t<decltype(unit)>;
+        if constexpr (std::is_same_v<C, Servo>) {
+          return unit.kp;  // the position loop's spring
+        } else if constexpr (std::is_same_v<C, Identification>) {
+          return 0.0;
+        } else if constexpr (std::is_same_v<C, Stmms> || std::is_same_v<C, HighGainFoc>) {
+          const KimMechanical& k = unit.mechanical;
+          return k.inertia * (k.k1 + k.k1p * k.k2);  // K(26): the e1 spring J·(k1 + k1p·k2)
+        } else {
+          return m.rotor_teeth * m.torque_constant * RestCurrentMagnitude();
+        }
+      },
+      config_.controller);
 }
 
 }  // namespace mjstepper

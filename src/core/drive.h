@@ -1,6 +1,7 @@
 // The multi-rate stepper drive: interrupt clock, sample → compute → apply after the computation
-// delay → zero-order hold (S-15), the bridges (S-13), and the windings integrated exactly in
-// between.
+// delay → zero-order hold (S-15), the bridges (S-13/S-14), the sensors (S-16, S-17), the motion
+// profile, and the windings integrated exactly in between. It holds one controller unit from the
+// registry (controllers/registry.h) and hands it, at each tick, the input that controller reads.
 //
 // Time line of interrupt k (t_k = k·T, T = isr_period, absolute, independent of any simulation
 // step; D = compute_delay, 0 <= D < T):
@@ -15,32 +16,20 @@
 #ifndef MJSTEPPER_CORE_DRIVE_H_
 #define MJSTEPPER_CORE_DRIVE_H_
 
+#include <array>
 #include <cstddef>
+#include <optional>
 #include <type_traits>
 
-#include "core/controllers/current_microstep.h"
-#include "core/controllers/servo.h"
-#include "core/controllers/voltage_microstep.h"
+#include "core/controllers/registry.h"
+#include "core/motion_profile.h"
 #include "core/motor_params.h"
 #include "core/power_stage.h"
-#include "core/sensors/velocity_estimator.h"
 
 namespace mjstepper {
 
-enum class DriveKind {
-  kVoltageMicrostep,  ///< open-loop voltage microstepping, K(5)
-  kCurrentMicrostep,  ///< PI current loop at the commanded angle, T(9)-(12)
-  kIdealCurrent,      ///< currents equal the T(12)-(13) setpoint at every instant (ideal source)
-  kServo,             ///< servo with harmonic damping, T(18)-(19): encoder feedback, 4 kHz + 20 kHz
-  kIdentification,    ///< T(7)-(8): servo with the position loop off, compensation only
-};
-
-/// The MJCF name of a drive kind: voltage_microstep, current_microstep, ideal_current, servo,
-/// identification.
-const char* DriveKindName(DriveKind kind);
-
 enum class InputMode {
-  kPosition,  ///< the command is the rotor angle θcmd, rad (held over a step)
+  kPosition,  ///< the command is the rotor angle θcmd, rad (held over a step), or a profile target
   kVelocity,  ///< the command is dθcmd/dt, rad/s; the drive integrates θcmd
 };
 
@@ -48,26 +37,17 @@ enum class WindingSolver { kExact, kRk4 };  ///< kRk4 only for reference runs in
 
 struct DriveConfig {
   MotorParams motor;
-  DriveKind kind = DriveKind::kCurrentMicrostep;
+  Controller controller;  ///< default: CurrentMicrostep with Tsui's loop
   InputMode input = InputMode::kPosition;
-  double bus_voltage = 48.0;        ///< Vbus, V (S-13)
-  double voltage_amplitude = 24.0;  ///< Vmax of voltage microstepping, V (K(5))
-  double hold_current = 1.9;        ///< I_hold, A (T(12))
-  double kp = 7.5;                  ///< PI proportional gain, V/A (T(9))
-  double ki_per_tick = 0.01;        ///< PI integral gain, V/A per tick (T(10))
-  double isr_period = 50e-6;        ///< T, s: interrupt period (S-15)
-  double compute_delay = 25e-6;     ///< D, s: from sample to new voltage, 0 <= D < T (S-15)
+  double bus_voltage = 48.0;     ///< Vbus, V (S-13)
+  double isr_period = 50e-6;     ///< T, s: interrupt period (S-15)
+  double compute_delay = 25e-6;  ///< D, s: from sample to new voltage, 0 <= D < T (S-15)
   PowerStageKind power_stage = PowerStageKind::kTwoHBridges;  ///< S-13 or S-14
-  /// The drive's harmonic compensation (T(13), T(19), T(8)): the enabled harmonics with the
-  /// drive's own estimates of Kdh, φh (may differ from motor.detent). Empty: no damping.
-  std::vector<DetentHarmonic> damping;
-  int encoder_counts = 4000;        ///< counts/rev of the servo's encoder (S-16); 0: ideal
-  double velocity_cutoff = 32.0;    ///< Hz, corner of the velocity estimate's low-pass (S-17)
-  double position_period = 250e-6;  ///< s, servo position loop period: a multiple of isr_period
-  double servo_kp = 1.0;            ///< N·m/rad, T(19)
-  double servo_ki = 10.0;           ///< N·m/(rad·s), T(19)
-  double servo_kv = 0.01;           ///< N·m·s/rad, T(19)
-  double friction_compensation = 0.029;  ///< Fs the servo and identification modes add, N·m
+  int encoder_counts = 4000;      ///< counts/rev of the encoder (S-16); 0: ideal
+  double velocity_cutoff = 32.0;  ///< Hz, corner of the velocity estimate's low-pass (S-17)
+  /// What the controller receives as ωfb; unset: the controller's own default.
+  std::optional<SpeedFeedback> speed_feedback;
+  MotionProfile profile;  ///< kNone: ctrl is the command itself
   WindingSolver solver = WindingSolver::kExact;
   double rk4_step = 1e-6;  ///< s, step of the kRk4 reference
 };
@@ -75,14 +55,13 @@ struct DriveConfig {
 /// Throws std::invalid_argument naming the field, value and rule.
 void Validate(const DriveConfig& c);
 
-/// Everything that changes as the drive runs, as plain doubles so that a simulator can store it
-/// (MuJoCo: plugin_state) and copy, reset and snapshot it. All zero = "not started": the drive then
-/// starts at rest on the rotor (Drive::Rest), SPEC §6.
-struct DriveState {
+/// The drive's own state, the same for every controller, as plain doubles. All zero = "not
+/// started": the drive then starts at rest on the rotor (Drive::Rest), SPEC §6.
+struct DriveCoreState {
   double started = 0;            ///< 0 until the drive has been anchored to a rotor angle
   double theta = 0;              ///< rad, rotor angle at the state's time
   double theta_cmd = 0;          ///< rad, commanded angle at the state's time
-  double omega_cmd = 0;          ///< rad/s, commanded speed over the last step
+  double omega_cmd = 0;          ///< rad/s, commanded speed at the state's time
   double current_a = 0;          ///< A
   double current_b = 0;          ///< A
   double voltage_a = 0;          ///< V, applied now (held)
@@ -91,12 +70,10 @@ struct DriveState {
   double pending_b = 0;          ///< V
   double pending = 0;            ///< 1 while pending_a/b wait for their apply time
   double next_tick = 0;          ///< k of the next interrupt, at k·T
-  double integral_d = 0;         ///< V, PI integrator s, d axis
-  double integral_q = 0;         ///< V, q axis
   double theta_meas = 0;         ///< rad, encoder angle at the last tick (S-16)
   double omega_est = 0;          ///< rad/s, velocity estimate at the last tick (S-17)
-  double position_integral = 0;  ///< rad·s, servo ∫θerr
-  double iq_cmd = 0;             ///< A, servo q-current command held between position updates
+  double current_ref_a = 0;      ///< A, the controller's current reference at the last tick
+  double current_ref_b = 0;      ///< A
   double energy_input = 0;       ///< J, ∫(va·ia + vb·ib) dt since the start
   double energy_copper = 0;      ///< J, ∫R·(ia² + ib²) dt
   double energy_mechanical = 0;  ///< J, ∫τm·ω dt
@@ -104,27 +81,44 @@ struct DriveState {
   PhaseVector current() const { return {current_a, current_b}; }
   PhaseVector voltage() const { return {voltage_a, voltage_b}; }
 };
-static_assert(std::is_trivially_copyable_v<DriveState> && sizeof(DriveState) % sizeof(double) == 0);
-inline constexpr int kDriveStateSize = sizeof(DriveState) / sizeof(double);
+static_assert(std::is_trivially_copyable_v<DriveCoreState> &&
+              sizeof(DriveCoreState) % sizeof(double) == 0);
 
-/// The state from / to kDriveStateSize doubles (a simulator's state array).
-DriveState LoadState(const double* values);
-void StoreState(const DriveState& state, double* values);
+/// Room for the largest controller state plus the profile's plan, in doubles.
+inline constexpr int kMaxUnitState = 40;
 
-/// What a user reads of one drive at one instant (SPEC §1, DESIGN §5).
+/// The whole state of one drive: the core, then the controller's own state, then the profile's.
+/// Only StateLayout::total doubles of it are stored by a simulator (MuJoCo: plugin_state).
+struct DriveState : DriveCoreState {
+  std::array<double, kMaxUnitState> unit{};
+};
+
+/// Where each part lives in a simulator's state array, decided once from the config.
+struct StateLayout {
+  int core = 0;        ///< doubles of DriveCoreState
+  int controller = 0;  ///< doubles of the controller's State
+  int profile = 0;     ///< doubles of the motion profile's plan (0 without a profile)
+  int total() const { return core + controller + profile; }
+};
+StateLayout MakeStateLayout(const DriveConfig& c);
+
+/// What a user reads of one drive at one instant (SPEC §1, DESIGN §5); the signal table
+/// (signals.h) names, orders and documents these fields.
 struct DriveSignals {
-  double current_a = 0, current_b = 0;  ///< A
-  double voltage_a = 0, voltage_b = 0;  ///< V, held phase voltages
-  double current_d = 0, current_q = 0;  ///< A, Park frame at ψ = Nr·θcmd (S-9, S-12)
-  double theta_cmd = 0;                 ///< rad
-  double omega_cmd = 0;                 ///< rad/s
-  double torque_em = 0;                 ///< τm, N·m (S-4)
-  double torque_detent = 0;             ///< τdet, N·m (S-5)
-  double torque_total = 0;              ///< τm + τdet, N·m: what the drive applies to the rotor
-  double load_angle = 0;                ///< δ = Nr·(θcmd − θ), electrical rad (S-12)
-  double lost_steps = 0;                ///< full steps slipped: 4·round(δ/2π), signed
-  double theta_meas = 0;                ///< rad, encoder angle at the last tick
-  double omega_est = 0;                 ///< rad/s, velocity estimate at the last tick
+  double current_a = 0, current_b = 0;          ///< A
+  double voltage_a = 0, voltage_b = 0;          ///< V, held phase voltages
+  double current_d = 0, current_q = 0;          ///< A, Park frame at ψ = Nr·θcmd (S-9, S-12)
+  double current_ref_a = 0, current_ref_b = 0;  ///< A, the controller's current reference
+  double theta_cmd = 0;                         ///< rad
+  double omega_cmd = 0;                         ///< rad/s
+  double torque_em = 0;                         ///< τm, N·m (S-4)
+  double torque_detent = 0;                     ///< τdet, N·m (S-5)
+  double torque_total = 0;                      ///< τm + τdet, N·m: the rotor's drive torque
+  double load_angle = 0;                        ///< δ = Nr·(θcmd − θ), electrical rad (S-12)
+  double lost_steps = 0;                        ///< full steps slipped: 4·round(δ/2π), signed
+  double energy_input = 0, energy_copper = 0, energy_mechanical = 0;  ///< J
+  double theta_meas = 0;                        ///< rad, encoder angle at the last tick
+  double omega_est = 0;                         ///< rad/s, velocity estimate at the last tick
 };
 
 class Drive {
@@ -132,14 +126,16 @@ class Drive {
   explicit Drive(DriveConfig config);  ///< validates; throws std::invalid_argument
 
   const DriveConfig& config() const { return config_; }
+  const StateLayout& layout() const { return layout_; }
+  const DriveConstants& constants() const { return constants_; }
 
   /// The state of a drive that has rested for ever at time t with the rotor at θ and the command
   /// `command` (SPEC §6): currents aligned with the commanded angle (θcmd = command in position
-  /// mode, θcmd = θ in velocity mode), voltages and PI integrator holding them. No transient.
+  /// mode without a profile, θcmd = θ otherwise), voltages and the controller holding them.
   DriveState Rest(double time, double theta, double command) const;
 
   /// Moves `state` from t0 to t1 >= t0. The rotor moves linearly from state->theta to theta1; the
-  /// command (rad or rad/s, by input mode) is held over the interval.
+  /// command (rad or rad/s, by input mode; the target angle with a profile) is held over the step.
   void Advance(DriveState* state, double t0, double t1, double theta1, double command) const;
 
   /// τm + τdet at rotor angle θ with the state's currents (N·m).
@@ -147,28 +143,30 @@ class Drive {
 
   DriveSignals Signals(const DriveState& state, double theta) const;
 
-  /// Magnitude of the current vector the drive holds at rest, A: I_hold, or Vmax/R in voltage mode.
+  /// The state from / to layout().total() doubles (a simulator's state array).
+  DriveState Load(const double* values) const;
+  void Store(const DriveState& state, double* values) const;
+
+  /// Magnitude of the current vector the drive holds at rest, A: I_hold, Vmax/R in voltage mode,
+  /// τl/Km for Kim's controllers, 0 for the servo modes.
   double RestCurrentMagnitude() const;
 
-  /// Holding stiffness at rest, N·m/rad: T' = Nr·Km·I (SPEC §1, T(1)); the servo's Kp in servo
-  /// mode; 0 in identification mode.
+  /// Holding stiffness at rest, N·m/rad: T' = Nr·Km·I (SPEC §1, T(1)) for the open-loop drives;
+  /// the position loop's for the closed-loop ones (servo Kp; J·(k1 + k1p·k2) for Kim's, K(26));
+  /// 0 in identification mode.
   double HoldingStiffness() const;
 
  private:
-  bool IsServo() const {
-    return config_.kind == DriveKind::kServo || config_.kind == DriveKind::kIdentification;
-  }
-  // Interrupt k at time t: sample the sensors, run the controller, schedule the new voltage.
-  void Tick(DriveState* s, long k, double theta, double theta_cmd, double omega_cmd,
-            PhaseVector current) const;
+  template <class C>
+  void AdvanceWith(const C& controller, DriveState* s, double t0, double t1, double theta1,
+                   double command) const;
 
   DriveConfig config_;
+  DriveConstants constants_;
+  StateLayout layout_;
   PowerStage stage_;
-  VoltageMicrostepController voltage_controller_;
-  CurrentMicrostepController current_controller_;
-  ServoController servo_controller_;
-  VelocityEstimator velocity_estimator_;
-  long ticks_per_position_update_ = 5;
+  SpeedFeedback speed_feedback_ = SpeedFeedback::kEstimate;
+  double velocity_gain_ = 0;  // a = 1 − exp(−2π·fc·T) of the S-17 low-pass
 };
 
 }  // namespace mjstepper

@@ -26,6 +26,8 @@ struct MotorParams {
   double rotor_inertia = 0.36e-4;  ///< J, kg·m² (actuator armature)
   double viscous_damping = 1e-3;   ///< B, N·m·s/rad (actuator or joint damping)
   double static_friction = 0.0;    ///< Fs, N·m (joint frictionloss)
+  double load_torque = 0.0;        ///< τl of the paper's setup, N·m (Kim: 0.1; a MuJoCo force)
+  double rated_current = 3.0;      ///< I_rated, A: the datasheet's phase current
 };
 
 /// Throws std::invalid_argument naming the field, its value and the rule when a value is out of

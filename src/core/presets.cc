@@ -20,7 +20,7 @@ Preset Tsui2009() {
   p.motor.rotor_inertia = 0.36e-4;  // kg·m²
   p.motor.viscous_damping = 1e-3;   // N·m·s/rad
   p.motor.static_friction = 0.029;  // N·m
-  p.rated_current = 3.0;
+  p.motor.rated_current = 3.0;  // A
   p.encoder_counts = 4000;
   return p;
 }
@@ -37,7 +37,8 @@ Preset Kim2016() {
   p.motor.torque_constant = 0.48;
   p.motor.rotor_inertia = 4.8e-5;
   p.motor.viscous_damping = 1e-3;
-  p.rated_current = 2.0;
+  p.motor.rated_current = 2.0;  // A
+  p.motor.load_torque = 0.1;  // N·m, Kim §5
   p.encoder_counts = 32000;
   return p;
 }
@@ -53,6 +54,7 @@ Preset Bodson1993() {
   p.motor.torque_constant = 0.19;
   p.motor.rotor_inertia = 4.5e-5;
   p.motor.viscous_damping = 8e-4;
+  p.motor.rated_current = 2.0;  // A, reconstructed (SPEC §4)
   return p;
 }
 

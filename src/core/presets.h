@@ -15,7 +15,6 @@ struct Preset {
   std::string name;
   std::string description;
   MotorParams motor;
-  double rated_current = 0;  ///< A, datasheet rated phase current
   int encoder_counts = 0;    ///< counts per revolution of the paper's encoder (S-16)
 };
 

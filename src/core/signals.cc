@@ -1,37 +1,66 @@
 #include "core/signals.h"
 
+#include <fmt/format.h>
+
+#include <stdexcept>
+
 namespace mjstepper {
 
 const std::array<SignalInfo, kNumSignals>& SignalTable() {
+  using S = DriveSignals;
   static const std::array<SignalInfo, kNumSignals> table = {{
-      {"current_a", "A", "phase A current ia"},
-      {"current_b", "A", "phase B current ib"},
-      {"voltage_a", "V", "phase A voltage va (held bridge output)"},
-      {"voltage_b", "V", "phase B voltage vb"},
-      {"current_d", "A", "id, Park frame at ψ = Nr·θcmd (S-9)"},
-      {"current_q", "A", "iq, Park frame at ψ = Nr·θcmd (S-9)"},
-      {"theta_cmd", "rad", "commanded rotor angle θcmd"},
-      {"omega_cmd", "rad/s", "commanded rotor speed over the last step"},
-      {"torque_em", "N·m", "electromagnetic torque τm (S-4)"},
-      {"torque_detent", "N·m", "detent torque τdet (S-5)"},
-      {"torque_total", "N·m", "τm + τdet, the torque on the rotor (actuator force)"},
-      {"load_angle", "rad (electrical)", "δ = Nr·(θcmd − θ) (S-12)"},
-      {"lost_steps", "full steps", "4·round(δ/2π): full steps slipped, signed"},
-      {"energy_input", "J", "∫(va·ia + vb·ib) dt since the start"},
-      {"energy_copper", "J", "∫R·(ia² + ib²) dt"},
-      {"energy_mechanical", "J", "∫τm·ω dt"},
-      {"theta_meas", "rad", "encoder angle at the last interrupt (S-16)"},
-      {"omega_est", "rad/s", "velocity estimate at the last interrupt (S-17)"},
+      {"current_a", "A", "phase A current ia", &S::current_a},
+      {"current_b", "A", "phase B current ib", &S::current_b},
+      {"voltage_a", "V", "phase A voltage va (held bridge output)", &S::voltage_a},
+      {"voltage_b", "V", "phase B voltage vb", &S::voltage_b},
+      {"current_d", "A", "id, Park frame at ψ = Nr·θcmd (S-9)", &S::current_d},
+      {"current_q", "A", "iq, Park frame at ψ = Nr·θcmd (S-9)", &S::current_q},
+      {"current_ref_a", "A",
+       "the controller's phase-A current reference at the last interrupt (iad of K(27) for "
+       "stmms/foc; the T(12)-(13) setpoint for the current drives; Vmax/R·cos(Nr·θcmd) for "
+       "voltage_microstep)",
+       &S::current_ref_a},
+      {"current_ref_b", "A", "the same for phase B", &S::current_ref_b},
+      {"theta_cmd", "rad", "commanded rotor angle θcmd (θd of the motion profile)", &S::theta_cmd},
+      {"omega_cmd", "rad/s", "commanded rotor speed", &S::omega_cmd},
+      {"torque_em", "N·m", "electromagnetic torque τm (S-4)", &S::torque_em},
+      {"torque_detent", "N·m", "detent torque τdet (S-5)", &S::torque_detent},
+      {"torque_total", "N·m", "τm + τdet, the torque on the rotor (actuator force)",
+       &S::torque_total},
+      {"load_angle", "rad (electrical)", "δ = Nr·(θcmd − θ) (S-12)", &S::load_angle},
+      {"lost_steps", "full steps", "4·round(δ/2π): full steps slipped, signed", &S::lost_steps},
+      {"energy_input", "J", "∫(va·ia + vb·ib) dt since the start; S-8 holds between the three energies; 0 under `ideal_current`, which has no windings", &S::energy_input},
+      {"energy_copper", "J", "∫R·(ia² + ib²) dt", &S::energy_copper},
+      {"energy_mechanical", "J", "∫τm·ω dt", &S::energy_mechanical},
+      {"theta_meas", "rad", "encoder angle at the last interrupt (S-16); `ideal_current` has no interrupts and keeps its start value", &S::theta_meas},
+      {"omega_est", "rad/s", "velocity estimate at the last interrupt (S-17)", &S::omega_est},
   }};
   return table;
 }
 
-std::array<double, kNumSignals> SignalValues(const DriveSignals& s, const DriveState& state) {
-  return {s.current_a,  s.current_b,        s.voltage_a,         s.voltage_b,
-          s.current_d,  s.current_q,        s.theta_cmd,         s.omega_cmd,
-          s.torque_em,  s.torque_detent,    s.torque_total,      s.load_angle,
-          s.lost_steps, state.energy_input, state.energy_copper, state.energy_mechanical,
-          s.theta_meas, s.omega_est};
+int SignalIndex(const std::string& name) {
+  const auto& table = SignalTable();
+  for (int i = 0; i < kNumSignals; ++i) {
+    if (name == table[i].name) return i;
+  }
+  throw std::out_of_range("no signal named " + name);
+}
+
+std::array<double, kNumSignals> SignalValues(const DriveSignals& s) {
+  std::array<double, kNumSignals> values;
+  const auto& table = SignalTable();
+  for (int i = 0; i < kNumSignals; ++i) values[i] = s.*(table[i].field);
+  return values;
+}
+
+std::string SignalTableMarkdown() {
+  std::string out = "| # | name | unit | meaning |\n|---|---|---|---|\n";
+  const auto& table = SignalTable();
+  for (int i = 0; i < kNumSignals; ++i) {
+    out += fmt::format("| {} | `{}` | {} | {} |\n", i, table[i].name, table[i].unit,
+                       table[i].meaning);
+  }
+  return out;
 }
 
 }  // namespace mjstepper

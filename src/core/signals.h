@@ -1,9 +1,11 @@
-// The signals a user reads of one drive, in a fixed order: the sensor output layout of the plugin
-// and the column order of the runner's log. Names and units are part of the public interface.
+// The signals a user reads of one drive, in a fixed order: the sensor output layout of the plugin,
+// the column order and header of the runner's log, the Python tools' names and units, and the
+// README's signal table all come from SignalTable(). Names and units are public interface.
 #ifndef MJSTEPPER_CORE_SIGNALS_H_
 #define MJSTEPPER_CORE_SIGNALS_H_
 
 #include <array>
+#include <string>
 
 #include "core/drive.h"
 
@@ -13,36 +15,22 @@ struct SignalInfo {
   const char* name;
   const char* unit;
   const char* meaning;
+  double DriveSignals::*field;  ///< where the value lives
 };
 
-/// Index of each signal in SignalTable and SignalValues.
-enum SignalIndex : int {
-  kCurrentA,
-  kCurrentB,
-  kVoltageA,
-  kVoltageB,
-  kCurrentD,
-  kCurrentQ,
-  kThetaCmd,
-  kOmegaCmd,
-  kTorqueEm,
-  kTorqueDetent,
-  kTorqueTotal,
-  kLoadAngle,
-  kLostSteps,
-  kEnergyInput,
-  kEnergyCopper,
-  kEnergyMechanical,
-  kThetaMeas,
-  kOmegaEst,
-  kNumSignals
-};
+inline constexpr int kNumSignals = 20;
 
-/// Name, unit and meaning of each signal, in output order.
+/// Name, unit, meaning and field of each signal, in output order.
 const std::array<SignalInfo, kNumSignals>& SignalTable();
 
-/// The values of SignalTable's signals for one drive: its signals plus its energy counters.
-std::array<double, kNumSignals> SignalValues(const DriveSignals& s, const DriveState& state);
+/// The index of the signal `name` in SignalTable (a compile-time-checked lookup for tools).
+int SignalIndex(const std::string& name);
+
+/// The values of SignalTable's signals, in its order.
+std::array<double, kNumSignals> SignalValues(const DriveSignals& s);
+
+/// The README's signal table (Markdown), made from SignalTable.
+std::string SignalTableMarkdown();
 
 }  // namespace mjstepper
 

@@ -63,6 +63,7 @@ Identified Identify(const IdentifyOptions& o) {
       mj_step(m, d);
       if (k < settle) continue;
       // After mj_step, actuator_force and sensordata describe the step's start.
+      static const int kThetaMeas = SignalIndex("theta_meas");
       const double theta = d->sensordata[stepper->sensor_adr + kThetaMeas] + half_count;
       const double x = teeth * theta;
       Eigen::VectorXd row = Eigen::VectorXd::Zero(columns);

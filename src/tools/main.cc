@@ -9,10 +9,14 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <filesystem>
 #include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include "config.h"
+#include "core/signals.h"
 #include "core/units.h"
 #include "identify.h"
 #include "plot.h"
@@ -45,14 +49,19 @@ int Info(const std::string& path) {
         "    Nr {}, R {:g} Ω, L {:g} H, Km {:g} N·m/A, {} detent harmonic(s)\n"
         "    rest current {:g} A, holding stiffness T' = {} = {:.4g} N·m/rad\n"
         "    rotor-side inertia J = {:.4g} kg·m² → fn = (1/2π)·√(T'/J) = {:.2f} Hz (S-1..S-7)\n",
-        s.name, DriveKindName(s.config.kind),
+        s.name, ControllerName(s.config.controller),
         s.config.input == InputMode::kPosition ? "position (ctrl in rad)"
                                                : "velocity (ctrl in rad/s)",
         p.rotor_teeth, p.resistance, p.inductance, p.torque_constant, p.detent.size(),
         drive.RestCurrentMagnitude(),
-        s.config.kind == DriveKind::kServo ? "servo_kp (the position loop)" : "Nr·Km·I", stiffness,
+        std::holds_alternative<Servo>(s.config.controller) ? "servo_kp (the position loop)"
+        : std::holds_alternative<Stmms>(s.config.controller) ||
+                std::holds_alternative<HighGainFoc>(s.config.controller)
+            ? "J·(k1 + k1p·k2), K(26)"
+            : "Nr·Km·I",
+        stiffness,
         inertia, fn);
-    if (s.config.kind == DriveKind::kIdentification) {
+    if (std::holds_alternative<Identification>(s.config.controller)) {
       fmt::print("    identification mode: no holding stiffness; something else turns the shaft\n");
       continue;
     }
@@ -68,6 +77,39 @@ int Info(const std::string& path) {
     }
   }
   return 0;  // warnings inform; they do not fail the command
+}
+
+// The README tables, made from the tables the parser and the sensors use.
+int WriteTables(const std::string& path) {
+  const std::vector<std::pair<std::string, std::string>> sections = {
+      {"drives", plugin::DriveListMarkdown()},
+      {"attributes", plugin::AttributeTableMarkdown()},
+      {"signals", SignalTableMarkdown()}};
+  if (path.empty()) {
+    for (const auto& [name, table] : sections) fmt::print("{}\n", table);
+    return 0;
+  }
+  std::ifstream in(path);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  for (const auto& [name, table] : sections) {
+    const std::string begin = fmt::format("<!-- BEGIN {} -->\n", name);
+    const std::string end = fmt::format("<!-- END {} -->", name);
+    const size_t b = text.find(begin), e = text.find(end);
+    if (b == std::string::npos || e == std::string::npos || e < b) {
+      throw std::runtime_error(fmt::format("{}: no {} ... {} markers", path, begin, end));
+    }
+    text.replace(b + begin.size(), e - b - begin.size(), table);
+  }
+  {
+    std::ofstream out(path + ".tmp");
+    out << text;
+    if (!out.flush()) throw std::runtime_error("cannot write " + path + ".tmp");
+  }
+  std::filesystem::rename(path + ".tmp", path);  // never half-written
+  fmt::print("wrote {}\n", path);
+  return 0;
 }
 
 }  // namespace
@@ -166,8 +208,16 @@ int main(int argc, char** argv) {
   CLI::App* info_cmd = app.add_subcommand("info", "list the steppers of a model and check it");
   info_cmd->add_option("model", info_model, "MJCF model")->required()->check(CLI::ExistingFile);
 
+  std::string tables_file;
+  CLI::App* tables_cmd = app.add_subcommand(
+      "tables", "print the drive, attribute and signal tables (Markdown), or --write them into "
+                "a README between its <!-- BEGIN x --> / <!-- END x --> markers");
+  tables_cmd->add_option("--write", tables_file, "README to update in place")
+      ->check(CLI::ExistingFile);
+
   CLI11_PARSE(app, argc, argv);
   try {
+    if (*tables_cmd) return WriteTables(tables_file);
     if (*run_cmd) {
       for (const std::string& c : ctrl) {
         const size_t eq = c.find('=');

@@ -20,8 +20,11 @@ namespace {
 
 std::string DriveText(const DriveConfig& c) {
   std::string damping;
-  for (const DetentHarmonic& h : c.damping) damping += fmt::format(" {}", h.order);
-  return fmt::format("{}, damping{}", DriveKindName(c.kind), damping.empty() ? " none" : damping);
+  if (const HarmonicCompensation* comp = Damping(c.controller)) {
+    for (const DetentHarmonic& h : comp->harmonics) damping += fmt::format(" {}", h.order);
+  }
+  return fmt::format("{}, damping{}", ControllerName(c.controller),
+                     damping.empty() ? " none" : damping);
 }
 
 }  // namespace

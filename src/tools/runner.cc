@@ -83,6 +83,10 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
       const StepperActuator& s = sm.steppers[i];
       d->ctrl[s.ctrladr] = profiles[i].ControlForStep(t, h, s.config.input, theta_start[i]);
     }
+    static const int kLoadAngle = SignalIndex("load_angle");
+    static const int kLostSteps = SignalIndex("lost_steps");
+    static const int kCurrentA = SignalIndex("current_a");
+    static const int kCurrentB = SignalIndex("current_b");
     mj_step(m, d);
     // After mj_step, actuator_length/velocity and sensordata describe the step's start, time t.
     row.assign(1, t);

@@ -24,7 +24,7 @@ namespace {
 
 double ParseSpeed(const std::string& number, const std::string& unit, const std::string& whole) {
   double v = 0;
-  if (!plugin::ParseFiniteDouble(number, &v)) {
+  if (!ParseFiniteDouble(number, &v)) {
     throw std::invalid_argument(fmt::format("--speeds {}: \"{}\" is not a number", whole, number));
   }
   if (unit == "rpm" || unit == "r/min") return RpmToRadPerSec(v);
@@ -57,7 +57,7 @@ SweepPoint RunOne(const mjModel* m, const StepperActuator& s, double speed, cons
   p.rms_error = Rms(error);
   p.peak_to_peak_error = PeakToPeak(error);
   p.dominant_frequency = DominantFrequency(error, 1.0 / h, 5.0, 1000.0, 0.5);
-  p.lost_steps = d->sensordata[s.sensor_adr + kLostSteps];
+  p.lost_steps = d->sensordata[s.sensor_adr + SignalIndex("lost_steps")];
   return p;
 }
 

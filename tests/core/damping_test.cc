@@ -14,8 +14,7 @@ namespace {
 DriveConfig Damped(std::vector<DetentHarmonic> damping) {
   DriveConfig c;
   c.motor = FindPreset("tsui2009")->motor;
-  c.kind = DriveKind::kIdealCurrent;
-  c.damping = std::move(damping);
+  c.controller = IdealCurrent{.setpoint = {.hold_current = 1.9, .damping = {std::move(damping)}}};
   return c;
 }
 

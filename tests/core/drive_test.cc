@@ -23,12 +23,26 @@ namespace {
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 
-DriveConfig TsuiConfig(DriveKind kind, InputMode input) {
+// The drives these tests were written for: voltage microstepping at 24 V (the K(5) amplitude of
+// Kim's open-loop example), Tsui's PI loop and servo with their SPEC §3 defaults.
+const Controller kVoltage = VoltageMicrostep{.voltage_amplitude = 24.0};
+const Controller kCurrent = CurrentMicrostep{};
+const Controller kServo = Servo{};
+const Controller kIdeal = IdealCurrent{};
+
+DriveConfig TsuiConfig(const Controller& controller, InputMode input) {
   DriveConfig c;
   c.motor = FindPreset("tsui2009")->motor;
-  c.kind = kind;
+  c.controller = controller;
   c.input = input;
   return c;
+}
+
+// The PI integrator of a current_microstep drive's state (controller state).
+CurrentMicrostep::State PiState(const DriveState& s) {
+  CurrentMicrostep::State pi;
+  std::memcpy(static_cast<void*>(&pi), s.unit.data(), sizeof(pi));
+  return pi;
 }
 
 // Runs a drive on a prescribed rotor path θ(t) with the command cmd(t) held over each step of
@@ -47,7 +61,7 @@ void RunPrescribed(const Drive& drive, DriveState* s, double t_end, double h,
 
 // At rest on the command (SPEC §6) nothing moves: no transient in currents, voltages, integrator.
 TEST(Drive, RestStateHasNoTransient) {
-  for (DriveKind kind : {DriveKind::kVoltageMicrostep, DriveKind::kCurrentMicrostep}) {
+  for (const Controller& kind : {kVoltage, kCurrent}) {
     const Drive drive(TsuiConfig(kind, InputMode::kPosition));
     const double theta = 0.004;  // rad, anywhere
     DriveState s = drive.Rest(0.0, theta, theta);
@@ -57,7 +71,7 @@ TEST(Drive, RestStateHasNoTransient) {
     // Round-off of 200 intervals on currents of order 1 A.
     EXPECT_NEAR(s.current_a, start.current_a, 1e-12);
     EXPECT_NEAR(s.current_b, start.current_b, 1e-12);
-    EXPECT_NEAR(s.integral_d, start.integral_d, 1e-12);
+    EXPECT_NEAR(PiState(s).integral_d, PiState(start).integral_d, 1e-12);
   }
 }
 
@@ -65,8 +79,8 @@ TEST(Drive, RestStateHasNoTransient) {
 // own rate R/L, to Vmax/R along the new commanded electrical angle. 50 ms = 20 time constants:
 // the transient left is e^-20 = 2e-9 of the step.
 TEST(Drive, VoltageMicrostepSettlesToVmaxOverR) {
-  DriveConfig c = TsuiConfig(DriveKind::kVoltageMicrostep, InputMode::kPosition);
-  c.voltage_amplitude = 1.71;  // V, so that Vmax/R = 1.9 A
+  DriveConfig c = TsuiConfig(VoltageMicrostep{.voltage_amplitude = 1.71},  // V: Vmax/R = 1.9 A
+                             InputMode::kPosition);
   const Drive drive(c);
   DriveState s = drive.Rest(0.0, 0.0, 0.0);
   const double theta_cmd = 0.01;  // rad, half an electrical turn
@@ -80,7 +94,7 @@ TEST(Drive, VoltageMicrostepSettlesToVmaxOverR) {
 // command step. Its slow pole is Ki/(Kp + R)·20 kHz ≈ 24 rad/s: after 0.5 s (12 time constants)
 // the error left is about 1e-5 of the 1.9 A step; the bound 1e-3 A leaves margin.
 TEST(Drive, CurrentLoopSettlesToHoldCurrent) {
-  const Drive drive(TsuiConfig(DriveKind::kCurrentMicrostep, InputMode::kPosition));
+  const Drive drive(TsuiConfig(kCurrent, InputMode::kPosition));
   DriveState s = drive.Rest(0.0, 0.0, 0.0);
   const double theta_cmd = 0.0123;
   RunPrescribed(
@@ -95,7 +109,7 @@ TEST(Drive, CurrentLoopSettlesToHoldCurrent) {
 // applies from 1.025 ms (D = 25 µs). Events are taken on [t0, t1): the state at 1.025 ms is the
 // one just before the switch; from the step after it the new voltage is held. 5 µs steps.
 TEST(Drive, VoltageAppliesAfterComputeDelayAndHolds) {
-  const Drive drive(TsuiConfig(DriveKind::kVoltageMicrostep, InputMode::kPosition));
+  const Drive drive(TsuiConfig(kVoltage, InputMode::kPosition));
   DriveState s = drive.Rest(0.0, 0.0, 0.0);
   const double jump = 0.005;                  // rad: electrical angle 0.25 rad
   std::vector<std::pair<double, double>> vb;  // (t, vb)
@@ -117,7 +131,7 @@ TEST(Drive, VoltageAppliesAfterComputeDelayAndHolds) {
 // path, steps of 10 µs (5 per tick), 50 µs (one) and 130 µs (2.6 ticks per step) give the same
 // currents at the common instants k·1.3 ms, to round-off (1e-10 A), for both drives.
 TEST(Drive, TicksAreIndependentOfTheSimulationStep) {
-  for (DriveKind kind : {DriveKind::kVoltageMicrostep, DriveKind::kCurrentMicrostep}) {
+  for (const Controller& kind : {kVoltage, kCurrent}) {
     const Drive drive(TsuiConfig(kind, InputMode::kVelocity));
     const double omega = RpmToRadPerSec(150);
     std::vector<std::vector<PhaseVector>> at_common(3);
@@ -148,14 +162,14 @@ TEST(Drive, TicksAreIndependentOfTheSimulationStep) {
 // S-13: each phase is clamped to ±Vbus, and the PI integrator holds while the bridges saturate
 // (conditional integration), so it cannot wind up during a long saturation.
 TEST(Drive, BridgesClampAndIntegratorDoesNotWindUp) {
-  DriveConfig c = TsuiConfig(DriveKind::kCurrentMicrostep, InputMode::kVelocity);
+  DriveConfig c = TsuiConfig(kCurrent, InputMode::kVelocity);
   c.bus_voltage = 12.0;  // V: 1200 r/min needs ~38 V of back-EMF alone
   for (PowerStageKind stage : {PowerStageKind::kTwoHBridges, PowerStageKind::kThreeLegSvpwm}) {
     c.power_stage = stage;
     const Drive drive(c);
     const double omega = RpmToRadPerSec(1200);
     DriveState s = drive.Rest(0.0, 0.0, omega);
-    const double integral0 = std::hypot(s.integral_d, s.integral_q);
+    const double integral0 = std::hypot(PiState(s).integral_d, PiState(s).integral_q);
     double max_v = 0;
     RunPrescribed(
         drive, &s, 0.05, 5e-5, [&](double t) { return omega * t; }, [&](double) { return omega; },
@@ -166,7 +180,7 @@ TEST(Drive, BridgesClampAndIntegratorDoesNotWindUp) {
     // It did saturate: the H-bridges reach ±Vbus per phase, SVPWM a span of Vbus (±Vbus/2 at 45°).
     EXPECT_GT(max_v, stage == PowerStageKind::kTwoHBridges ? 11.9 : 5.9);
     // Without anti-windup the integrator would grow by Ki·|e| ≈ 0.01 V per tick for 1000 ticks.
-    EXPECT_LT(std::hypot(s.integral_d, s.integral_q), integral0 + 12.0);
+    EXPECT_LT(std::hypot(PiState(s).integral_d, PiState(s).integral_q), integral0 + 12.0);
   }
 }
 
@@ -174,8 +188,8 @@ TEST(Drive, BridgesClampAndIntegratorDoesNotWindUp) {
 // bridge saturation on the way. The energies are integrated in closed form per interval, so the
 // mismatch is round-off; H6 asks < 1e-4 of the input energy, asserted with that bound.
 TEST(Drive, H6_PowerBalanceOverARun) {
-  for (DriveKind kind :
-       {DriveKind::kVoltageMicrostep, DriveKind::kCurrentMicrostep, DriveKind::kServo}) {
+  for (const Controller& kind :
+       {kVoltage, kCurrent, kServo}) {
     const Drive drive(TsuiConfig(kind, InputMode::kVelocity));
     DriveState s = drive.Rest(0.0, 0.0, 0.0);
     const PhaseVector i0 = s.current();
@@ -188,7 +202,7 @@ TEST(Drive, H6_PowerBalanceOverARun) {
     const double scale = std::abs(s.energy_input);
     ASSERT_GT(scale, 0.1);
     EXPECT_LT(std::abs(mismatch), 1e-4 * scale)
-        << DriveKindName(kind) << ": mismatch " << mismatch << " J";
+        << ControllerName(kind) << ": mismatch " << mismatch << " J";
     EXPECT_LT(std::abs(mismatch), 1e-9 * scale);  // what the closed form achieves
   }
 }
@@ -196,8 +210,8 @@ TEST(Drive, H6_PowerBalanceOverARun) {
 // H8: currents against a reference that runs the same drive with RK4 at 1 µs instead of the exact
 // solution, rotor at 1200 r/min, for each drive: error < 0.1 % of the 3 A rated current.
 TEST(Drive, H8_CurrentsMatchRk4Reference) {
-  for (DriveKind kind :
-       {DriveKind::kVoltageMicrostep, DriveKind::kCurrentMicrostep, DriveKind::kServo}) {
+  for (const Controller& kind :
+       {kVoltage, kCurrent, kServo}) {
     DriveConfig exact_config = TsuiConfig(kind, InputMode::kVelocity);
     DriveConfig reference_config = exact_config;
     reference_config.solver = WindingSolver::kRk4;
@@ -213,8 +227,8 @@ TEST(Drive, H8_CurrentsMatchRk4Reference) {
       reference.Advance(&b, k * h, (k + 1) * h, theta((k + 1) * h), omega);
       max_error = std::max(max_error, std::abs(a.current() - b.current()));
     }
-    EXPECT_LT(max_error, 1e-3 * 3.0) << DriveKindName(kind);
-    std::printf("H8: %s: max |i - i_rk4| = %.3g A\n", DriveKindName(kind), max_error);
+    EXPECT_LT(max_error, 1e-3 * 3.0) << ControllerName(kind);
+    std::printf("H8: %s: max |i - i_rk4| = %.3g A\n", ControllerName(kind), max_error);
   }
 }
 
@@ -222,7 +236,7 @@ TEST(Drive, H8_CurrentsMatchRk4Reference) {
 // rotor following the command with a constant lag. The phase-A current's fundamental (200 Hz) is
 // 1.9 A ± 5 % and lags cos(Nr·θcmd) by less than 5°. The plugin test repeats this on MuJoCo.
 TEST(Drive, H14_PiLoopFundamentalOnPrescribedRotor) {
-  const Drive drive(TsuiConfig(DriveKind::kCurrentMicrostep, InputMode::kVelocity));
+  const Drive drive(TsuiConfig(kCurrent, InputMode::kVelocity));
   const double omega = RpmToRadPerSec(240);
   DriveState s = drive.Rest(0.0, 0.0, omega);
   std::vector<double> t, ia, reference;
@@ -242,14 +256,14 @@ TEST(Drive, H14_PiLoopFundamentalOnPrescribedRotor) {
 }
 
 TEST(Drive, LostStepsCountFullElectricalCycles) {
-  const Drive drive(TsuiConfig(DriveKind::kIdealCurrent, InputMode::kPosition));
+  const Drive drive(TsuiConfig(kIdeal, InputMode::kPosition));
   const DriveState s = drive.Rest(0.0, 0.0, kTwoPi / 50);  // θcmd one electrical cycle ahead
   EXPECT_EQ(drive.Signals(s, 0.0).lost_steps, 4.0);
   EXPECT_EQ(drive.Signals(s, kTwoPi / 50).lost_steps, 0.0);
 }
 
 TEST(Drive, ValidateNamesFieldAndValue) {
-  DriveConfig c = TsuiConfig(DriveKind::kCurrentMicrostep, InputMode::kPosition);
+  DriveConfig c = TsuiConfig(kCurrent, InputMode::kPosition);
   c.compute_delay = 60e-6;
   try {
     Drive d(c);
@@ -260,11 +274,12 @@ TEST(Drive, ValidateNamesFieldAndValue) {
 }
 
 TEST(Drive, StateRoundTripsThroughDoubles) {
-  const Drive drive(TsuiConfig(DriveKind::kCurrentMicrostep, InputMode::kPosition));
+  const Drive drive(TsuiConfig(kCurrent, InputMode::kPosition));
   DriveState s = drive.Rest(0.1, 0.2, 0.3);
-  std::vector<double> buffer(kDriveStateSize);
-  StoreState(s, buffer.data());
-  const DriveState back = LoadState(buffer.data());
+  EXPECT_EQ(drive.layout().total(), 19 + 2);  // core + the PI integrators; no profile
+  std::vector<double> buffer(drive.layout().total());
+  drive.Store(s, buffer.data());
+  const DriveState back = drive.Load(buffer.data());
   EXPECT_EQ(std::memcmp(&back, &s, sizeof(s)), 0);
   EXPECT_EQ(SignalTable().size(), static_cast<size_t>(kNumSignals));
 }

@@ -1,6 +1,8 @@
 // The MJCF config parser (plugin/config.h): strict numbers, presets, overrides, docs.
 #include "config.h"
 
+#include "core/signals.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -38,13 +40,14 @@ TEST(Config, DefaultsAreTsuiCurrentMicrostepping) {
   const auto parsed = ParseMap({});
   ASSERT_TRUE(std::holds_alternative<DriveConfig>(parsed));
   const DriveConfig& c = std::get<DriveConfig>(parsed);
-  EXPECT_EQ(c.kind, DriveKind::kCurrentMicrostep);
+  ASSERT_TRUE(std::holds_alternative<CurrentMicrostep>(c.controller));
+  const CurrentMicrostep& drive = std::get<CurrentMicrostep>(c.controller);
   EXPECT_EQ(c.input, InputMode::kPosition);
   EXPECT_EQ(c.motor.resistance, 0.9);
   EXPECT_EQ(c.motor.detent.size(), 3u);
-  EXPECT_EQ(c.hold_current, 1.9);
-  EXPECT_EQ(c.kp, 7.5);
-  EXPECT_EQ(c.ki_per_tick, 0.01);
+  EXPECT_EQ(drive.setpoint.hold_current, 1.9);
+  EXPECT_EQ(drive.loop.kp, 7.5);
+  EXPECT_EQ(drive.loop.ki_per_tick, 0.01);
   EXPECT_EQ(c.isr_period, 50e-6);
   EXPECT_EQ(c.compute_delay, 25e-6);
   EXPECT_EQ(c.bus_voltage, 48.0);
@@ -63,7 +66,9 @@ TEST(Config, PresetValuesCanBeOverridden) {
   ASSERT_EQ(c.motor.detent.size(), 2u);
   EXPECT_EQ(c.motor.detent[1].order, 1);
   EXPECT_EQ(c.motor.detent[1].phase, 1.5708);
-  EXPECT_EQ(c.kind, DriveKind::kVoltageMicrostep);
+  ASSERT_TRUE(std::holds_alternative<VoltageMicrostep>(c.controller));
+  // SPEC §3: Vmax defaults to R·I_rated, here the overridden R = 2.0 Ω times Kim's 2 A.
+  EXPECT_EQ(std::get<VoltageMicrostep>(c.controller).voltage_amplitude, 4.0);
   EXPECT_EQ(c.input, InputMode::kVelocity);
   EXPECT_TRUE(std::get<DriveConfig>(ParseMap({{"detent", "none"}})).motor.detent.empty());
 }
@@ -79,16 +84,60 @@ TEST(Config, VoltageAmplitudeAboveBusFailsForVoltageDrive) {
   ASSERT_TRUE(std::holds_alternative<std::string>(parsed));
   EXPECT_EQ(std::get<std::string>(parsed),
             "voltage_amplitude = \"60\": must be <= bus_voltage = 48 for voltage_microstep (V)");
-  // The current drive does not use it: no error.
-  EXPECT_TRUE(std::holds_alternative<DriveConfig>(ParseMap({{"voltage_amplitude", "60"}})));
 }
 
-// Every attribute the parser knows has a row in plugin/README.md's table, with a unit column.
-TEST(Config, EveryAttributeIsDocumented) {
+// An attribute the chosen drive does not read is an error naming the drives that read it, not a
+// silent no-op (a typo of intent, such as servo gains on an open-loop drive).
+TEST(Config, AttributeOfAnotherDriveFails) {
+  const auto parsed = ParseMap({{"voltage_amplitude", "6"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(parsed));
+  EXPECT_EQ(std::get<std::string>(parsed),
+            "voltage_amplitude = \"6\": not read by drive current_microstep (read by "
+            "voltage_microstep)");
+  const auto kim = ParseMap({{"drive", "servo"}, {"k1p", "1000"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(kim));
+  EXPECT_THAT(std::get<std::string>(kim), HasSubstr("read by stmms, foc"));
+}
+
+TEST(Config, ProfileNeedsPositionInput) {
+  const auto parsed = ParseMap({{"profile", "trapezoid"}, {"input", "velocity"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(parsed));
+  EXPECT_THAT(std::get<std::string>(parsed),
+              HasSubstr("profile = \"trapezoid\": a motion profile moves to a target angle"));
+  const auto limits = ParseMap({{"profile_speed", "3"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(limits));
+  EXPECT_THAT(std::get<std::string>(limits), HasSubstr("has no effect without profile"));
+}
+
+TEST(Config, KimControllersAndGainSets) {
+  const auto stmms = ParseMap({{"motor", "kim2016"}, {"drive", "stmms"}});
+  ASSERT_TRUE(std::holds_alternative<DriveConfig>(stmms)) << std::get<std::string>(stmms);
+  const Stmms& s = std::get<Stmms>(std::get<DriveConfig>(stmms).controller);
+  EXPECT_EQ(s.mechanical.k1p, 40000);
+  EXPECT_EQ(s.mechanical.load_torque, 0.1);  // the preset's τl
+  EXPECT_EQ(s.mechanical.inertia, 4.8e-5);   // the preset's J
+  const auto case2 = ParseMap({{"motor", "kim2016"}, {"drive", "foc"}, {"foc_case", "case2"},
+                               {"ff_inertia", "5e-5"}});
+  ASSERT_TRUE(std::holds_alternative<DriveConfig>(case2)) << std::get<std::string>(case2);
+  const HighGainFoc& f = std::get<HighGainFoc>(std::get<DriveConfig>(case2).controller);
+  EXPECT_EQ(f.mechanical.k1p, 10000);
+  EXPECT_EQ(f.rho, 10000);
+  EXPECT_EQ(f.mechanical.inertia, 5e-5);  // its own J, not the plant's
+  const auto bad = ParseMap({{"drive", "foc"}, {"foc_case", "case3"}});
+  EXPECT_EQ(std::get<std::string>(bad), "foc_case = \"case3\": must be one of: case1, case2");
+}
+
+// plugin/README.md carries exactly the tables made from the attribute, signal and controller
+// tables: a new attribute, signal or drive, or an edited meaning, fails here until the README is
+// regenerated (`build/mjstepper tables --write plugin/README.md`).
+TEST(Config, ReadmeTablesAreTheTables) {
   std::ifstream file(MJSTEPPER_SOURCE_DIR "/plugin/README.md");
   ASSERT_TRUE(file) << "plugin/README.md missing";
   std::stringstream text;
   text << file.rdbuf();
+  EXPECT_THAT(text.str(), HasSubstr(AttributeTableMarkdown()));
+  EXPECT_THAT(text.str(), HasSubstr(SignalTableMarkdown()));
+  EXPECT_THAT(text.str(), HasSubstr(DriveListMarkdown()));
   for (const char* name : AttributeNames()) {
     EXPECT_THAT(text.str(), HasSubstr(std::string("| `") + name + "`")) << name;
   }

@@ -8,7 +8,24 @@
 #include <memory>
 #include <string>
 
+#include "core/signals.h"
+
 namespace mjstepper::testing {
+
+// Signal offsets in a stepper sensor's sensordata, from the signal table.
+inline const int kCurrentA = SignalIndex("current_a");
+inline const int kCurrentB = SignalIndex("current_b");
+inline const int kCurrentD = SignalIndex("current_d");
+inline const int kVoltageA = SignalIndex("voltage_a");
+inline const int kThetaCmd = SignalIndex("theta_cmd");
+inline const int kTorqueEm = SignalIndex("torque_em");
+inline const int kTorqueDetent = SignalIndex("torque_detent");
+inline const int kTorqueTotal = SignalIndex("torque_total");
+inline const int kLoadAngle = SignalIndex("load_angle");
+inline const int kLostSteps = SignalIndex("lost_steps");
+inline const int kEnergyInput = SignalIndex("energy_input");
+inline const int kEnergyCopper = SignalIndex("energy_copper");
+inline const int kEnergyMechanical = SignalIndex("energy_mechanical");
 
 struct ModelDeleter {
   void operator()(mjModel* m) const { mj_deleteModel(m); }

@@ -1,12 +1,15 @@
 """The plugin from Python: mujoco.mj_loadPluginLibrary, load MJCF, step, read signals."""
 import math
 import os
+import sys
 import unittest
 
 import mujoco
 
 PLUGIN = os.environ["MJSTEPPER_PLUGIN"]
 SOURCE = os.environ["MJSTEPPER_SOURCE_DIR"]
+sys.path.insert(0, os.path.join(SOURCE, "src", "tools", "python"))
+from mjstepper_signals import signal_table  # noqa: E402  the one signal table
 
 
 class PluginFromPython(unittest.TestCase):
@@ -26,16 +29,19 @@ class PluginFromPython(unittest.TestCase):
             data.ctrl[0] = omega
             mujoco.mj_step(model, data)
         signals = data.sensor("shaft_signals").data
-        self.assertEqual(len(signals), 18)
+        names = [row[0] for row in signal_table()]
+        self.assertEqual(len(signals), len(names))
         # The rotor turned about ω·t (a synchronous motor; ±2 % for the start transient).
         self.assertAlmostEqual(data.qpos[0] / (omega * 0.2), 1.0, delta=0.02)
         # Current amplitude held near 1.9 A by the PI loop (±10 %: ripple and loop lag).
-        self.assertAlmostEqual(math.hypot(signals[0], signals[1]), 1.9, delta=0.19)
-        self.assertEqual(signals[12], 0.0)  # no lost steps
+        self.assertAlmostEqual(math.hypot(signals[names.index("current_a")],
+                                          signals[names.index("current_b")]), 1.9, delta=0.19)
+        self.assertEqual(signals[names.index("lost_steps")], 0.0)
 
     def test_bad_config_names_attribute(self):
         with open(os.path.join(SOURCE, "models", "tsui_rigid.xml")) as f:
-            xml = f.read().replace('value="1.9"', 'value="-1.9"')
+            xml = f.read().replace('<config key="input"',
+                                   '<config key="hold_current" value="-1.9"/><config key="input"')
         with self.assertRaises(ValueError) as ctx:
             mujoco.MjModel.from_xml_string(xml)
         self.assertIn('hold_current = "-1.9"', str(ctx.exception))

@@ -5,39 +5,115 @@
 //   id* = I_hold                                                               T(12)
 //   iq* = (1/Km)·Σh Kdh·sin(h·Nr·θcmd + φh)   (0 with no harmonic enabled)      T(13)
 // then the PI current loop of T(9)-(11) in that frame (dq_current_loop.h).
+// `IdealCurrent` is the same setpoint forced on the windings at every instant (no loop, no R/L).
 #ifndef MJSTEPPER_CORE_CONTROLLERS_CURRENT_MICROSTEP_H_
 #define MJSTEPPER_CORE_CONTROLLERS_CURRENT_MICROSTEP_H_
 
-#include "core/controllers/control_sample.h"
+#include "core/controllers/controller.h"
 #include "core/controllers/dq_current_loop.h"
 #include "core/controllers/harmonic_compensation.h"
 
 namespace mjstepper {
 
-struct CurrentMicrostepController {
-  int rotor_teeth = 50;          ///< Nr
-  double torque_constant = 0.3;  ///< Km the drive assumes, N·m/A
+inline constexpr AttributeSpec kAttrHoldCurrent{
+    "hold_current", "real", "1.9", "A",
+    "id* of `current_microstep` and `ideal_current`, T(12); > 0."};
+
+/// The T(12)-(13) setpoint shared by the PI drive and the ideal current source.
+struct MicrostepSetpoint {
   double hold_current = 1.9;     ///< I_hold, A, T(12)
   HarmonicCompensation damping;  ///< T(13); empty: no damping
-  DqCurrentLoop loop;
 
   /// id* + j·iq* at the commanded angle, T(12)-(13).
-  PhaseVector Setpoint(double theta_cmd) const {
-    return {hold_current, damping.Torque(rotor_teeth * theta_cmd) / torque_constant};
+  PhaseVector Dq(const DriveConstants& k, double theta_cmd) const {
+    return {hold_current, damping.Torque(k.rotor_teeth * theta_cmd) / k.torque_constant};
+  }
+  /// The same in the phase frame (S-10 at ψ = Nr·θcmd).
+  PhaseVector Phase(const DriveConstants& k, double theta_cmd) const {
+    return FromDq(Dq(k, theta_cmd), k.rotor_teeth * theta_cmd);
+  }
+  static MicrostepSetpoint FromAttributes(const AttributeSource& a, const MotorParams& motor) {
+    return {.hold_current = a.Real(kAttrHoldCurrent, 1.9, AttributeSource::Rule::kPositive),
+            .damping = HarmonicCompensation::FromAttributes(a, motor)};
+  }
+};
+
+struct CurrentMicrostep {
+  static constexpr const char* kName = "current_microstep";
+  static constexpr const char* kSummary =
+      "PI current loop in the commanded frame, T(9)-(12), with the open-loop damping of T(13) "
+      "when `damping` is set.";
+  static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
+
+  MicrostepSetpoint setpoint;
+  DqCurrentLoop loop;
+
+  struct State {
+    double integral_d = 0;  ///< V, PI integrator s, d axis
+    double integral_q = 0;  ///< V, q axis
+  };
+  using Input = Sample;
+
+  static std::vector<const AttributeSpec*> Attributes() {
+    return {&kAttrHoldCurrent, &kAttrKp, &kAttrKi, &kAttrDamping, &kAttrDampingDetent};
+  }
+  static CurrentMicrostep FromAttributes(const AttributeSource& a, const MotorParams& motor,
+                                         const DriveConstants&) {
+    return {.setpoint = MicrostepSetpoint::FromAttributes(a, motor),
+            .loop = DqCurrentLoop::FromAttributes(a)};
   }
 
-  BridgeOutput Update(const ControlSample& in, const PowerStage& stage,
-                      PhaseVector* integral_dq) const {
-    return loop.Update(Setpoint(in.theta_cmd), rotor_teeth * in.theta_cmd, in.current, stage,
-                       integral_dq);
+  TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
+                  State* s) const {
+    const double park_angle = k.rotor_teeth * in.command.theta;  // ψ = Nr·θcmd, S-12
+    const PhaseVector park = UnitPhasor(park_angle);
+    const PhaseVector target = setpoint.Dq(k, in.command.theta);
+    PhaseVector integral(s->integral_d, s->integral_q);
+    const BridgeOutput out = loop.Update(target, park, in.current, stage, &integral);
+    s->integral_d = integral.real();
+    s->integral_q = integral.imag();
+    return {.bridge = out, .current_ref = park * target};
   }
 
-  /// Currents on the setpoint at θcmd (A), and the integrator that holds them against R (V).
-  PhaseVector RestCurrent(double theta_cmd) const {
-    return FromDq(Setpoint(theta_cmd), rotor_teeth * theta_cmd);
+  /// Currents on the setpoint at θcmd, and the integrator that holds them against R.
+  PhaseVector Rest(const DriveConstants& k, const RestInput& in, State* s) const {
+    const PhaseVector integral = k.resistance * setpoint.Dq(k, in.theta_cmd);  // V
+    s->integral_d = integral.real();
+    s->integral_q = integral.imag();
+    return setpoint.Phase(k, in.theta_cmd);
   }
-  PhaseVector RestIntegral(double theta_cmd, double resistance) const {
-    return resistance * Setpoint(theta_cmd);
+};
+
+/// An ideal current source: the windings carry the T(12)-(13) setpoint at every instant. The
+/// drive runs no ticks and integrates no windings for it (kIdealSource).
+struct IdealCurrent {
+  static constexpr const char* kName = "ideal_current";
+  static constexpr const char* kSummary =
+      "the currents equal the `current_microstep` setpoint at every instant (no winding "
+      "dynamics, no bus limit): the reference for what the loop should achieve.";
+  static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
+  static constexpr bool kIdealSource = true;
+
+  MicrostepSetpoint setpoint;
+
+  struct State {};
+  using Input = MechanicalSample;
+
+  static std::vector<const AttributeSpec*> Attributes() {
+    return {&kAttrHoldCurrent, &kAttrDamping, &kAttrDampingDetent};
+  }
+  static IdealCurrent FromAttributes(const AttributeSource& a, const MotorParams& motor,
+                                     const DriveConstants&) {
+    return {.setpoint = MicrostepSetpoint::FromAttributes(a, motor)};
+  }
+
+  /// Not called by the drive (no ticks); the voltage that would hold the setpoint at rest.
+  TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage&, State*) const {
+    const PhaseVector i = setpoint.Phase(k, in.command.theta);
+    return {.bridge = {.voltage = k.resistance * i}, .current_ref = i};
+  }
+  PhaseVector Rest(const DriveConstants& k, const RestInput& in, State*) const {
+    return setpoint.Phase(k, in.theta_cmd);
   }
 };
 

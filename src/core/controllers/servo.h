@@ -2,7 +2,7 @@
 // variant, Tsui §II.C (eq. 7-8).
 //
 // Field-oriented at the encoder's electrical angle:  ψ = Nr·θfb,  id* = 0              T(18)
-// Position loop, every `position_every` ticks (4 kHz at a 20 kHz interrupt):
+// Position loop, every `position_period` (4 kHz at a 20 kHz interrupt):
 //   θerr = θcmd − θfb,   ωerr = ωcmd − ωfb,   I[n] = I[n−1] + θerr·Tp
 //   iq* = (1/Km)·[Kv·ωerr + Kp·θerr + Ki·I + Σh Kdh·sin(h·Nr·θfb + φh) + Fs·sgn(ωcmd)]  T(19)
 // held between position updates; the PI current loop of T(9)-(11) runs every tick.
@@ -15,31 +15,81 @@
 #ifndef MJSTEPPER_CORE_CONTROLLERS_SERVO_H_
 #define MJSTEPPER_CORE_CONTROLLERS_SERVO_H_
 
-#include "core/controllers/control_sample.h"
+#include "core/controllers/controller.h"
 #include "core/controllers/dq_current_loop.h"
 #include "core/controllers/harmonic_compensation.h"
 
 namespace mjstepper {
 
-struct ServoState {
-  double position_integral = 0;  ///< ∫θerr dt, rad·s
-  double iq_cmd = 0;             ///< A, held between position updates
-};
+inline constexpr AttributeSpec kAttrPositionPeriod{
+    "position_period", "real", "250e-6", "s",
+    "Servo position-loop period (4 kHz); a whole multiple of `isr_period`."};
+inline constexpr AttributeSpec kAttrServoKp{"servo_kp", "real", "1.0", "N·m/rad",
+                                            "Servo position gain Kp, T(19) (SI set of SPEC §3)."};
+inline constexpr AttributeSpec kAttrServoKi{"servo_ki", "real", "10", "N·m/(rad·s)",
+                                            "Servo integral gain Ki, T(19)."};
+inline constexpr AttributeSpec kAttrServoKv{"servo_kv", "real", "0.01", "N·m·s/rad",
+                                            "Servo velocity gain Kv, T(19)."};
+inline constexpr AttributeSpec kAttrFrictionCompensation{
+    "friction_compensation", "real", "preset Fs (0.029)", "N·m",
+    "Fs the servo adds as Fs·sgn(ωcmd) (T(19)) and identification as Fs·sgn(ωest) (T(8))."};
 
-struct ServoController {
-  int rotor_teeth = 50;
-  double torque_constant = 0.3;     ///< Km the drive assumes, N·m/A
+struct Servo {
+  static constexpr const char* kName = "servo";
+  static constexpr const char* kSummary =
+      "Tsui's servo with damping, T(18)-(19): encoder feedback, position loop every "
+      "`position_period`, current loop every interrupt.";
+  static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
+
   double kp = 1.0;                  ///< N·m/rad
   double ki = 10.0;                 ///< N·m/(rad·s)
   double kv = 0.01;                 ///< N·m·s/rad
   double friction = 0.029;          ///< Fs the drive compensates, N·m
   double position_period = 250e-6;  ///< Tp, s
-  bool identification = false;      ///< T(7)-(8): position loop off
+  long ticks_per_position = 5;      ///< Tp/T
   HarmonicCompensation damping;
   DqCurrentLoop loop;
 
-  BridgeOutput Update(const ControlSample& in, const PowerStage& stage, PhaseVector* integral_dq,
-                      ServoState* state) const;
+  struct State {
+    double integral_d = 0;         ///< V, PI integrator, d axis
+    double integral_q = 0;         ///< V, q axis
+    double position_integral = 0;  ///< ∫θerr dt, rad·s
+    double iq_cmd = 0;             ///< A, held between position updates
+  };
+  using Input = Sample;
+
+  static std::vector<const AttributeSpec*> Attributes();
+  static Servo FromAttributes(const AttributeSource& a, const MotorParams& motor,
+                              const DriveConstants& k);
+  TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
+                  State* s) const;
+  /// At rest on its command the servo asks for no torque.
+  PhaseVector Rest(const DriveConstants&, const RestInput&, State*) const { return 0; }
+};
+
+struct Identification {
+  static constexpr const char* kName = "identification";
+  static constexpr const char* kSummary =
+      "T(7)-(8), the servo with the position loop off (compensation only) while something else "
+      "turns the shaft.";
+  static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
+
+  double friction = 0.029;  ///< Fs the drive compensates, N·m
+  HarmonicCompensation damping;
+  DqCurrentLoop loop;
+
+  struct State {
+    double integral_d = 0;  ///< V
+    double integral_q = 0;  ///< V
+  };
+  using Input = Sample;
+
+  static std::vector<const AttributeSpec*> Attributes();
+  static Identification FromAttributes(const AttributeSource& a, const MotorParams& motor,
+                                       const DriveConstants& k);
+  TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
+                  State* s) const;
+  PhaseVector Rest(const DriveConstants&, const RestInput&, State*) const { return 0; }
 };
 
 }  // namespace mjstepper

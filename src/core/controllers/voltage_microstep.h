@@ -5,23 +5,43 @@
 #ifndef MJSTEPPER_CORE_CONTROLLERS_VOLTAGE_MICROSTEP_H_
 #define MJSTEPPER_CORE_CONTROLLERS_VOLTAGE_MICROSTEP_H_
 
-#include "core/controllers/control_sample.h"
-#include "core/power_stage.h"
+#include "core/controllers/controller.h"
 
 namespace mjstepper {
 
-struct VoltageMicrostepController {
-  int rotor_teeth = 50;           ///< Nr
-  double voltage_amplitude = 24;  ///< Vmax, V
+inline constexpr AttributeSpec kAttrVoltageAmplitude{
+    "voltage_amplitude", "real", "R·I_rated of the preset (2.7, 4.6, 1.1)", "V",
+    "Vmax of `voltage_microstep`, K(5): at rest the current is Vmax/R, so the default rests the "
+    "motor at its rated current. > 0 and ≤ `bus_voltage`."};
 
-  /// The stage voltage for the tick; stateless.
-  BridgeOutput Update(const ControlSample& in, const PowerStage& stage) const {
-    return stage.Apply(voltage_amplitude * UnitPhasor(rotor_teeth * in.theta_cmd));  // K(5)
+struct VoltageMicrostep {
+  static constexpr const char* kName = "voltage_microstep";
+  static constexpr const char* kSummary =
+      "open-loop voltage microstepping, K(5): va = Vmax·cos(Nr·θcmd), vb = Vmax·sin(Nr·θcmd).";
+  static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
+
+  double voltage_amplitude = 2.7;  ///< Vmax, V (Tsui: R·I_rated = 0.9 Ω · 3 A)
+
+  struct State {};  // stateless
+  using Input = MechanicalSample;
+
+  static std::vector<const AttributeSpec*> Attributes() { return {&kAttrVoltageAmplitude}; }
+  static VoltageMicrostep FromAttributes(const AttributeSource& a, const MotorParams& motor,
+                                         const DriveConstants&) {
+    return {.voltage_amplitude = a.Real(kAttrVoltageAmplitude,
+                                        motor.resistance * motor.rated_current,
+                                        AttributeSource::Rule::kPositive)};
   }
 
-  /// Phase currents of the drive at rest, aligned with the command: Vmax/R·e^{jNrθcmd}.
-  PhaseVector RestCurrent(double theta_cmd, double resistance) const {
-    return voltage_amplitude / resistance * UnitPhasor(rotor_teeth * theta_cmd);
+  TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
+                  State*) const {
+    const PhaseVector v = voltage_amplitude * UnitPhasor(k.rotor_teeth * in.command.theta);  // K(5)
+    return {.bridge = stage.Apply(v), .current_ref = v / k.resistance};  // K(4)
+  }
+
+  /// Phase currents at rest, aligned with the command: Vmax/R·e^{jNrθcmd}.
+  PhaseVector Rest(const DriveConstants& k, const RestInput& in, State*) const {
+    return voltage_amplitude / k.resistance * UnitPhasor(k.rotor_teeth * in.theta_cmd);
   }
 };
 

@@ -41,6 +41,16 @@ def save(fig, out):
     os.replace(tmp, out)
 
 
+def column(c, stepper, signal):
+    """(values, unit) of `stepper:signal[unit]`: the unit comes from the CSV header, which the
+    signal table writes (src/core/signals.cc), not from this file."""
+    prefix = f"{stepper}:{signal}["
+    for name, values in c.items():
+        if name.startswith(prefix):
+            return values, name[len(prefix):-1]
+    raise KeyError(f"no column {prefix}...] in the log")
+
+
 def steppers_of(header):
     return [name.split(":")[0] for name in header if name.endswith(":omega[rad/s]")]
 
@@ -56,13 +66,16 @@ def plot_log(path, out, title=None):
         axes[0].plot(t, omega, lw=0.7, label=f"{name} speed")
         axes[0].plot(t, omega_cmd, lw=1.0, ls="--", label=f"{name} command")
         axes[1].plot(t, [e * RPM for e in c[f"{name}:velocity_error[rad/s]"]], lw=0.6, label=name)
-        axes[2].plot(t, c[f"{name}:current_a[A]"], lw=0.6, label=f"{name} ia")
-        axes[2].plot(t, c[f"{name}:current_b[A]"], lw=0.6, label=f"{name} ib")
-        axes[3].plot(t, c[f"{name}:load_angle[rad (electrical)]"], lw=0.6, label=name)
+        ia, current_unit = column(c, name, "current_a")
+        axes[2].plot(t, ia, lw=0.6, label=f"{name} ia")
+        axes[2].plot(t, column(c, name, "current_b")[0], lw=0.6, label=f"{name} ib")
+        delta, angle_unit = column(c, name, "load_angle")
+        axes[3].plot(t, delta, lw=0.6, label=name)
     axes[0].set_ylabel("speed (r/min)")
     axes[1].set_ylabel("velocity error (r/min)")
-    axes[2].set_ylabel("phase current (A)")
-    axes[3].set_ylabel("load angle (el. rad)")
+    if names:
+        axes[2].set_ylabel(f"phase current ({current_unit})")
+        axes[3].set_ylabel(f"load angle ({angle_unit})")
     axes[3].set_xlabel("time (s)")
     for ax in axes:
         ax.grid(alpha=0.3)

@@ -1,0 +1,107 @@
+#include "core/attributes.h"
+
+#include <fmt/format.h>
+
+#include <charconv>
+#include <cmath>
+#include <sstream>
+
+namespace mjstepper {
+
+void ThrowBad(const AttributeSpec& spec, const std::string& value, const std::string& rule) {
+  throw ConfigError(fmt::format("{} = \"{}\": {}", spec.name, value, rule));
+}
+
+std::string Trim(const std::string& s) {
+  const size_t begin = s.find_first_not_of(" \t\n\r");
+  if (begin == std::string::npos) return "";
+  const size_t end = s.find_last_not_of(" \t\n\r");
+  return s.substr(begin, end - begin + 1);
+}
+
+bool ParseFiniteDouble(const std::string& text, double* value) {
+  const std::string t = Trim(text);
+  if (t.empty()) return false;
+  const char* begin = t.data();
+  const char* end = t.data() + t.size();
+  if (*begin == '+') ++begin;  // from_chars rejects a leading '+'
+  const auto [ptr, ec] = std::from_chars(begin, end, *value);
+  return ec == std::errc() && ptr == end && std::isfinite(*value);
+}
+
+std::optional<std::string> AttributeSource::Raw(const AttributeSpec& spec) const {
+  const char* value = read_(spec.name);
+  if (value == nullptr || value[0] == '\0') return std::nullopt;
+  return Trim(value);
+}
+
+double AttributeSource::Real(const AttributeSpec& spec, double fallback, Rule rule) const {
+  const std::optional<std::string> raw = Raw(spec);
+  if (!raw) return fallback;
+  double value = 0;
+  if (!ParseFiniteDouble(*raw, &value)) {
+    ThrowBad(spec, *raw, fmt::format("not a finite number; write e.g. 1.5 (unit: {})", spec.unit));
+  }
+  if (rule == Rule::kPositive && !(value > 0)) {
+    ThrowBad(spec, *raw, fmt::format("must be > 0 ({})", spec.unit));
+  }
+  if (rule == Rule::kNonNegative && !(value >= 0)) {
+    ThrowBad(spec, *raw, fmt::format("must be >= 0 ({})", spec.unit));
+  }
+  return value;
+}
+
+int AttributeSource::Integer(const AttributeSpec& spec, int fallback, int low, int high) const {
+  const std::optional<std::string> raw = Raw(spec);
+  if (!raw) return fallback;
+  double value = 0;
+  if (!ParseFiniteDouble(*raw, &value) || value != std::floor(value) || value < low ||
+      value > high) {
+    ThrowBad(spec, *raw, fmt::format("must be an integer in [{}, {}] ({})", low, high, spec.unit));
+  }
+  return static_cast<int>(value);
+}
+
+std::string AttributeSource::Choice(const AttributeSpec& spec, const std::string& fallback,
+                                    const std::vector<std::string>& choices) const {
+  const std::optional<std::string> raw = Raw(spec);
+  if (!raw) return fallback;
+  for (const std::string& c : choices) {
+    if (*raw == c) return c;
+  }
+  ThrowBad(spec, *raw, fmt::format("must be one of: {}", fmt::join(choices, ", ")));
+}
+
+std::optional<std::vector<DetentHarmonic>> AttributeSource::Harmonics(
+    const AttributeSpec& spec) const {
+  const std::optional<std::string> raw = Raw(spec);
+  if (!raw) return std::nullopt;
+  if (*raw == "none") return std::vector<DetentHarmonic>{};
+  const char* rule =
+      "expected \"none\" or triplets \"order amplitude phase\" (-, N·m, rad) separated by "
+      "';', e.g. \"4 0.006 0; 2 0.014 3.1416\"";
+  std::vector<DetentHarmonic> harmonics;
+  std::stringstream groups(*raw);
+  std::string group;
+  while (std::getline(groups, group, ';')) {
+    std::stringstream fields(Trim(group));
+    std::string field;
+    std::vector<double> values;
+    while (fields >> field) {
+      double v = 0;
+      if (!ParseFiniteDouble(field, &v)) ThrowBad(spec, *raw, rule);
+      values.push_back(v);
+    }
+    if (values.size() != 3) ThrowBad(spec, *raw, rule);
+    if (values[0] < 1 || values[0] != std::floor(values[0]) || values[0] > 1000) {
+      ThrowBad(spec, *raw, "harmonic order must be an integer in [1, 1000]");
+    }
+    if (values[1] < 0) ThrowBad(spec, *raw, "amplitude must be >= 0 (N·m)");
+    harmonics.push_back(
+        {.order = static_cast<int>(values[0]), .amplitude = values[1], .phase = values[2]});
+  }
+  if (harmonics.empty()) ThrowBad(spec, *raw, rule);
+  return harmonics;
+}
+
+}  // namespace mjstepper

@@ -1,0 +1,81 @@
+// The closed set of controllers a drive can hold: one line per controller. Adding one means its
+// file, a line here, and its tests; the parser, the attribute list and the README's tables follow.
+#ifndef MJSTEPPER_CORE_CONTROLLERS_REGISTRY_H_
+#define MJSTEPPER_CORE_CONTROLLERS_REGISTRY_H_
+
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "core/controllers/current_microstep.h"
+#include "core/controllers/high_gain_foc.h"
+#include "core/controllers/servo.h"
+#include "core/controllers/stmms.h"
+#include "core/controllers/voltage_microstep.h"
+
+namespace mjstepper {
+
+using Controller = std::variant<CurrentMicrostep,  // the default (index 0)
+                                VoltageMicrostep, IdealCurrent, Servo, Identification, Stmms,
+                                HighGainFoc>;
+
+namespace internal {
+template <class V>
+struct AllUnits;
+template <class... C>
+struct AllUnits<std::variant<C...>> {
+  static constexpr bool value = (ControllerUnit<C> && ...);
+};
+}  // namespace internal
+static_assert(internal::AllUnits<Controller>::value, "every registered controller is a unit");
+
+/// Calls f.template operator()<C>() for each registered controller type C, in registry order.
+template <class F>
+void ForEachControllerType(F&& f) {
+  [&]<class... C>(std::variant<C...>*) { (f.template operator()<C>(), ...); }(
+      static_cast<Controller*>(nullptr));
+}
+
+/// The MJCF name of the controller a drive holds (`drive` attribute).
+inline const char* ControllerName(const Controller& c) {
+  return std::visit([](const auto& unit) { return std::decay_t<decltype(unit)>::kName; }, c);
+}
+
+/// Every controller's name, in registry order.
+std::vector<std::string> ControllerNames();
+
+/// The controller named `name`, built from its own attributes; throws ConfigError on bad values,
+/// std::out_of_range for an unknown name.
+Controller MakeController(const std::string& name, const AttributeSource& attributes,
+                          const MotorParams& motor, const DriveConstants& constants);
+
+/// The attributes `name` reads (empty for an unknown name).
+std::vector<const AttributeSpec*> ControllerAttributes(const std::string& name);
+
+/// Every controller attribute, each once, in registry order of first use.
+std::vector<const AttributeSpec*> AllControllerAttributes();
+
+/// The names of the controllers that read `attribute`.
+std::vector<std::string> ControllersReading(const std::string& attribute);
+
+/// The harmonic compensation a controller applies, or null for one that has none.
+inline const HarmonicCompensation* Damping(const Controller& c) {
+  return std::visit(
+      [](const auto& unit) -> const HarmonicCompensation* {
+        if constexpr (requires { unit.damping.harmonics; }) {
+          return &unit.damping;
+        } else if constexpr (requires { unit.setpoint.damping; }) {
+          return &unit.setpoint.damping;
+        } else {
+          return nullptr;
+        }
+      },
+      c);
+}
+
+/// The speed feedback a controller uses unless the user says otherwise.
+SpeedFeedback DefaultSpeedFeedback(const Controller& c);
+
+}  // namespace mjstepper
+
+#endif  // MJSTEPPER_CORE_CONTROLLERS_REGISTRY_H_
