@@ -5,7 +5,9 @@
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
 
+#include <fstream>
 #include <memory>
+#include <sstream>
 #include <string>
 
 #include "core/signals.h"
@@ -18,6 +20,9 @@ inline const int kCurrentB = SignalIndex("current_b");
 inline const int kCurrentD = SignalIndex("current_d");
 inline const int kVoltageA = SignalIndex("voltage_a");
 inline const int kThetaCmd = SignalIndex("theta_cmd");
+inline const int kCurrentRefA = SignalIndex("current_ref_a");
+inline const int kCurrentRefB = SignalIndex("current_ref_b");
+inline const int kVoltageB = SignalIndex("voltage_b");
 inline const int kTorqueEm = SignalIndex("torque_em");
 inline const int kTorqueDetent = SignalIndex("torque_detent");
 inline const int kTorqueTotal = SignalIndex("torque_total");
@@ -80,6 +85,25 @@ inline ModelPtr LoadModel(const std::string& xml, std::string* error = nullptr) 
   mj_deleteVFS(&vfs);
   if (error != nullptr) *error = buffer;
   return m;
+}
+
+/// A shipped model (models/NAME) with a signal sensor on actuator `actuator`, and `extra`
+/// <config> elements added to that stepper.
+inline std::string ShippedModelWithSignals(const std::string& name, const std::string& actuator,
+                                           const std::string& extra = "") {
+  std::ifstream file(std::string(MJSTEPPER_SOURCE_DIR "/models/") + name);
+  std::stringstream text;
+  text << file.rdbuf();
+  std::string xml = text.str();
+  if (!extra.empty()) {
+    const size_t config = xml.find("<config key=\"motor\"");
+    xml.insert(config, extra);
+  }
+  xml.replace(xml.rfind("</mujoco>"), 9,
+              fmt::format(R"(<sensor><plugin plugin="mjstepper.stepper" objtype="actuator" )"
+                          R"(objname="{}"/></sensor></mujoco>)",
+                          actuator));
+  return xml;
 }
 
 }  // namespace mjstepper::testing
