@@ -7,6 +7,7 @@
 #include <cstring>
 #include <limits>
 #include <stdexcept>
+#include <tuple>
 
 #include "core/motor.h"
 #include "core/sensors/encoder.h"
@@ -88,6 +89,9 @@ Drive::Drive(DriveConfig config) : config_(std::move(config)) {
                                             layout_.controller + layout_.profile, kMaxUnitState));
   }
   stage_ = {.kind = config_.power_stage, .bus_voltage = config_.bus_voltage};
+  for (const DetentHarmonic& h : motor.detent) {
+    detent_.push_back({.order = h.order, .weight = h.amplitude * UnitPhasor(h.phase)});
+  }
   speed_feedback_ = config_.speed_feedback.value_or(DefaultSpeedFeedback(config_.controller));
   velocity_gain_ = 1.0 - std::exp(-kTwoPi * config_.velocity_cutoff * config_.isr_period);  // S-17
 }
@@ -185,12 +189,19 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
     PhaseVector current = s->current();
     PhaseVector voltage = s->voltage();
     double t = t0;
+    // The rotor's electrical phasor e^{jx(t)}, carried from interval to interval by each kernel's
+    // rotation e^{jΩh} (one sincos per step); the last kernel is reused while intervals keep their
+    // length (round-off: lengths from absolute tick times agree to ~1e-9 of a period).
+    PhaseVector phasor = UnitPhasor(constants_.rotor_teeth * theta0);
+    WindingKernel kernel;
     auto integrate_to = [&](double t_end) {
       if (t_end <= t) return;
       if (config_.solver == WindingSolver::kExact) {
-        const WindingInterval piece(motor, current, voltage, theta_at(t), omega);
+        const double length = t_end - t;
+        if (std::abs(length - kernel.h) > 1e-9 * length) kernel = WindingKernel(motor, omega, length);
         IntervalEnergy e;
-        current = piece.EndOfInterval(t_end - t, &e);
+        current = AdvanceInterval(motor, kernel, current, voltage, phasor, &e);
+        phasor *= kernel.rotation;
         s->energy_input += e.input;
         s->energy_copper += e.copper;
         s->energy_mechanical += e.mechanical;
@@ -210,8 +221,7 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
       const Sample sample{
           .command = command_at(t),
           .feedback = {.theta = theta_meas,
-                       .omega = speed_feedback_ == SpeedFeedback::kExact ? omega : s->omega_est,
-                       .elec_phasor = UnitPhasor(constants_.rotor_teeth * theta_meas)},
+                       .omega = speed_feedback_ == SpeedFeedback::kExact ? omega : s->omega_est},
           .current = current,
           .tick = k};
       const TickOutput out = controller.Tick(constants_, C::Input::From(sample), stage_, &unit);
@@ -255,9 +265,24 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   if (profiled) Pack(plan, s->unit.data() + layout_.controller);
 }
 
+std::pair<double, double> Drive::Torques(const DriveCoreState& s, double theta) const {
+  const PhaseVector z = UnitPhasor(constants_.rotor_teeth * theta);  // e^{jx}, S-1
+  const double torque_em = constants_.torque_constant * (std::conj(z) * s.current()).imag();  // S-4
+  double torque_detent = 0;  // S-5: −Σh Kdh·sin(h·x + φh) = −Σh Im(Kdh·e^{jφh}·(e^{jx})^h)
+  for (const DetentTerm& term : detent_) {
+    PhaseVector power(1, 0), base = z;
+    for (int h = term.order; h > 0; h >>= 1) {  // (e^{jx})^h by squaring
+      if (h & 1) power *= base;
+      base *= base;
+    }
+    torque_detent -= (term.weight * power).imag();
+  }
+  return {torque_em, torque_detent};
+}
+
 double Drive::Torque(const DriveState& s, double theta) const {
-  return ElectromagneticTorque(config_.motor, theta, s.current()) +
-         DetentTorque(config_.motor, theta);
+  const auto [torque_em, torque_detent] = Torques(s, theta);
+  return torque_em + torque_detent;
 }
 
 DriveSignals Drive::Signals(const DriveState& s, double theta) const {
@@ -274,8 +299,7 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
   out.current_ref_b = s.current_ref_b;
   out.theta_cmd = s.theta_cmd;
   out.omega_cmd = s.omega_cmd;
-  out.torque_em = ElectromagneticTorque(motor, theta, s.current());
-  out.torque_detent = DetentTorque(motor, theta);
+  std::tie(out.torque_em, out.torque_detent) = Torques(s, theta);
   out.torque_total = out.torque_em + out.torque_detent;
   out.load_angle = motor.rotor_teeth * (s.theta_cmd - theta);  // S-12
   out.lost_steps = 4.0 * std::round(out.load_angle / kTwoPi);

@@ -20,6 +20,8 @@
 #include <cstddef>
 #include <optional>
 #include <type_traits>
+#include <utility>
+#include <vector>
 
 #include "core/controllers/registry.h"
 #include "core/motion_profile.h"
@@ -161,7 +163,15 @@ class Drive {
   void AdvanceWith(const C& controller, DriveState* s, double t0, double t1, double theta1,
                    double command) const;
 
+  // τm + τdet from one sincos: the detent harmonics as (h, Kdh·e^{jφh}), e^{jhx} = (e^{jx})^h.
+  struct DetentTerm {
+    int order = 1;
+    PhaseVector weight;  // Kdh·e^{jφh}, N·m
+  };
+  std::pair<double, double> Torques(const DriveCoreState& s, double theta) const;
+
   DriveConfig config_;
+  std::vector<DetentTerm> detent_;
   DriveConstants constants_;
   StateLayout layout_;
   PowerStage stage_;

@@ -42,33 +42,42 @@ IntervalEnergy WindingInterval::Energy(double h) const {
 }
 
 PhaseVector WindingInterval::EndOfInterval(double h, IntervalEnergy* energy) const {
-  // With i = A + B·e^{jΩt} + C·e^{−at} (A = steady_, B = emf_, C = transient_), every integral is
-  // one of ∫e^{s·t} for five values of s, and all their end values follow from two: e^{jΩh} and
-  // e^{−ah} (one sincos and one exp per interval).
-  const PhaseVector A = steady_, B = emf_, C = transient_;
-  const PhaseVector jw(0, electrical_speed_);
-  const double a = decay_;
-  const PhaseVector rotation = UnitPhasor(electrical_speed_ * h);  // e^{jΩh}
-  const double decay = std::exp(-a * h);                           // e^{−ah}
-  const PhaseVector current = A + B * rotation + C * decay;
+  return AdvanceInterval(p_, WindingKernel(p_, omega_, h), steady_ + emf_ + transient_, voltage_,
+                         UnitPhasor(ElectricalAngle(p_, theta0_)), energy);
+}
+
+WindingKernel::WindingKernel(const MotorParams& p, double omega_, double h_) : h(h_), omega(omega_) {
+  const double R = p.resistance, L = p.inductance, Km = p.torque_constant;
+  const double a = R / L;                                   // 1/s
+  const double w = p.rotor_teeth * omega;                   // Ω, rad/s
+  rotation = UnitPhasor(w * h);
+  decay = std::exp(-a * h);
+  emf_gain = PhaseVector(0, -Km * omega) / PhaseVector(R, w * L);
+  const PhaseVector jw(0, w);
+  int_jw = IntegralOfExp(jw, h, rotation);
+  int_a = IntegralOfExp(-a, h, decay).real();
+  int_2a = IntegralOfExp(-2 * a, h, decay * decay).real();
+  int_jw_a = IntegralOfExp(jw - a, h, rotation * decay);
+  int_mjw_a = IntegralOfExp(-jw - a, h, std::conj(rotation) * decay);
+}
+
+PhaseVector AdvanceInterval(const MotorParams& p, const WindingKernel& k, PhaseVector current0,
+                            PhaseVector voltage, PhaseVector phasor0, IntervalEnergy* energy) {
+  // i(t) = A + B·e^{jΩt} + C·e^{−at}: A = v/R, B = P·e^{jx0}, C = i0 − A − B (winding.h).
+  const PhaseVector A = voltage / p.resistance, B = k.emf_gain * phasor0, C = current0 - A - B;
+  const PhaseVector current = A + B * k.rotation + C * k.decay;
   if (energy == nullptr) return current;
-  const PhaseVector e_jw = IntegralOfExp(jw, h, rotation);                // ∫e^{jΩt}
-  const PhaseVector e_a = IntegralOfExp(-a, h, decay);                    // ∫e^{−at}
-  const PhaseVector e_2a = IntegralOfExp(-2 * a, h, decay * decay);       // ∫e^{−2at}
-  const PhaseVector e_jw_a = IntegralOfExp(jw - a, h, rotation * decay);  // ∫e^{(jΩ−a)t}
-  const PhaseVector e_mjw_a = IntegralOfExp(-jw - a, h, std::conj(rotation) * decay);
-  // input: ∫Re(conj(v)·i)
-  energy->input = (std::conj(voltage_) * (A * h + B * e_jw + C * e_a)).real();
-  // copper: R·∫|i|², |i|² expanded into its nine products
-  const double norm_integral = std::norm(A) * h + std::norm(B) * h + std::norm(C) * e_2a.real() +
-                               2 * (A * std::conj(B) * std::conj(e_jw)).real() +
-                               2 * (A * std::conj(C)).real() * e_a.real() +
-                               2 * (B * std::conj(C) * e_jw_a).real();
-  energy->copper = p_.resistance * norm_integral;
-  // mechanical: ∫τm·ω = Km·ω·∫Im(e^{−jx(t)}·i(t)), e^{−jx(t)} = e^{−jx0}·e^{−jΩt}   (S-4)
-  const PhaseVector back = UnitPhasor(-ElectricalAngle(p_, theta0_));
-  energy->mechanical =
-      p_.torque_constant * omega_ * (back * (A * std::conj(e_jw) + B * h + C * e_mjw_a)).imag();
+  const double h = k.h;
+  energy->input = (std::conj(voltage) * (A * h + B * k.int_jw + C * k.int_a)).real();
+  const double norm_integral = std::norm(A) * h + std::norm(B) * h + std::norm(C) * k.int_2a +
+                               2 * (A * std::conj(B) * std::conj(k.int_jw)).real() +
+                               2 * (A * std::conj(C)).real() * k.int_a +
+                               2 * (B * std::conj(C) * k.int_jw_a).real();
+  energy->copper = p.resistance * norm_integral;
+  // ∫τm·ω = Km·ω·∫Im(e^{−jx(t)}·i(t)), e^{−jx(t)} = e^{−jx0}·e^{−jΩt}   (S-4)
+  energy->mechanical = p.torque_constant * k.omega *
+                       (std::conj(phasor0) * (A * std::conj(k.int_jw) + B * h + C * k.int_mjw_a))
+                           .imag();
   return current;
 }
 

@@ -41,8 +41,11 @@ struct CommandSample {
 /// Position and speed feedback at tick t_k.
 struct FeedbackSample {
   double theta = 0;           ///< θfb: encoder angle (S-16), rad
-  double omega = 0;           ///< ωfb: speed feedback (S-17 estimate, or exact), rad/s
-  PhaseVector elec_phasor{};  ///< e^{j·Nr·θfb}, precomputed by the drive (cos + j·sin)
+  double omega = 0;  ///< ωfb: speed feedback (S-17 estimate, or exact), rad/s
+
+  /// e^{j·Nr·θfb} (cos + j·sin of the measured electrical angle), for the controllers that
+  /// commutate on the feedback.
+  PhaseVector ElecPhasor(int rotor_teeth) const { return UnitPhasor(rotor_teeth * theta); }
 };
 
 /// Everything the drive samples at tick t_k (S-15).

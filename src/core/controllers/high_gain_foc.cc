@@ -27,7 +27,7 @@ TickOutput HighGainFoc::Tick(const DriveConstants& k, const Input& in, const Pow
   const KimMechanical::Errors e = mech.Track(m);
   s->e0 += k.isr_period * e.e1;                          // K(22)
   const double torque = mech.DesiredTorque(m, e, s->e0);  // τd, K(24)
-  const PhaseVector phasor = in.feedback.elec_phasor;     // e^{jx}
+  const PhaseVector phasor = in.feedback.ElecPhasor(k.rotor_teeth);  // e^{jx}
   const PhaseVector current_ref = KimMechanical::Commutate(torque, k.torque_constant, phasor);
   const double omega = in.feedback.omega;
   PhaseVector current_ref_dot;  // i̇d, A/s

@@ -10,11 +10,12 @@ namespace {
 double Sign(double v) { return (v > 0) - (v < 0); }
 
 // The field-oriented current loop at ψ = Nr·θfb with id* = 0, T(18).
-TickOutput FieldOriented(const DqCurrentLoop& loop, double iq_cmd, const Sample& in,
-                         const PowerStage& stage, double* integral_d, double* integral_q) {
+TickOutput FieldOriented(const DriveConstants& k, const DqCurrentLoop& loop, double iq_cmd,
+                         const Sample& in, const PowerStage& stage, double* integral_d,
+                         double* integral_q) {
   PhaseVector integral(*integral_d, *integral_q);
   const PhaseVector target(0.0, iq_cmd);
-  const PhaseVector park = in.feedback.elec_phasor;
+  const PhaseVector park = in.feedback.ElecPhasor(k.rotor_teeth);  // ψ = Nr·θfb
   const BridgeOutput out = loop.Update(target, park, in.current, stage, &integral);
   *integral_d = integral.real();
   *integral_q = integral.imag();
@@ -60,7 +61,7 @@ TickOutput Servo::Tick(const DriveConstants& k, const Input& in, const PowerStag
                           damping.Torque(x_fb) + friction * Sign(in.command.omega);  // T(19), N·m
     s->iq_cmd = torque / k.torque_constant;
   }
-  return FieldOriented(loop, s->iq_cmd, in, stage, &s->integral_d, &s->integral_q);
+  return FieldOriented(k, loop, s->iq_cmd, in, stage, &s->integral_d, &s->integral_q);
 }
 
 std::vector<const AttributeSpec*> Identification::Attributes() {
@@ -81,7 +82,7 @@ TickOutput Identification::Tick(const DriveConstants& k, const Input& in, const 
   const double x_fb = k.rotor_teeth * in.feedback.theta;
   const double iq_cmd =
       (damping.Torque(x_fb) + friction * Sign(in.feedback.omega)) / k.torque_constant;
-  return FieldOriented(loop, iq_cmd, in, stage, &s->integral_d, &s->integral_q);
+  return FieldOriented(k, loop, iq_cmd, in, stage, &s->integral_d, &s->integral_q);
 }
 
 }  // namespace mjstepper

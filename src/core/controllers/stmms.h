@@ -41,10 +41,11 @@ struct Stmms {
     const KimMechanical::Errors e = mechanical.Track(in);
     s->e0 += k.isr_period * e.e1;                                        // K(22)
     const double torque = mechanical.DesiredTorque(in, e, s->e0);       // τd, K(24)
+    const PhaseVector phasor = in.feedback.ElecPhasor(k.rotor_teeth);  // e^{jx}
     const PhaseVector current_ref =
-        KimMechanical::Commutate(torque, k.torque_constant, in.feedback.elec_phasor);  // K(27)
+        KimMechanical::Commutate(torque, k.torque_constant, phasor);  // K(27)
     const PhaseVector emf(0, k.torque_constant * in.feedback.omega);    // j·Km·ω
-    const PhaseVector v = k.resistance * current_ref + emf * in.feedback.elec_phasor;  // K(28)
+    const PhaseVector v = k.resistance * current_ref + emf * phasor;  // K(28)
     return {.bridge = stage.Apply(v), .current_ref = current_ref};
   }
 
