@@ -93,9 +93,12 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     for (size_t i = 0; i < sm.steppers.size(); ++i) {
       const StepperActuator& s = sm.steppers[i];
       const double omega = d->actuator_velocity[s.outadr];
-      const double omega_cmd = profiles[i].Speed(t);
-      const double error = omega - omega_cmd;
       const double* signals = d->sensordata + s.sensor_adr;
+      // With the drive's own motion profile, ctrl is a target and the command is the drive's.
+      static const int kOmegaCmd = SignalIndex("omega_cmd");
+      const double omega_cmd = s.config.profile.kind == ProfileKind::kNone ? profiles[i].Speed(t)
+                                                                           : signals[kOmegaCmd];
+      const double error = omega - omega_cmd;
       StepperSummary& sum = result.steppers[i];
       sum_sq[i] += error * error;
       sum.max_velocity_error = std::max(sum.max_velocity_error, std::abs(error));
