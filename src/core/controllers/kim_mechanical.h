@@ -38,7 +38,7 @@ inline constexpr AttributeSpec kAttrFfDamping{
 inline constexpr AttributeSpec kAttrFfLoadTorque{
     "ff_load_torque", "real", "preset τl (0.1 for kim2016, else 0)", "N·m",
     "τl in K(24): the load torque the controller feeds forward (the plant's load is a separate "
-    "MuJoCo force, see models/README.md)."};
+    "MuJoCo force, see \"Load torque\" in plugin/README.md)."};
 
 struct KimMechanical {
   double k1p = 40000;         ///< 1/s
