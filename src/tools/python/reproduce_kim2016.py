@@ -119,7 +119,9 @@ def parameters():
     if not m:
         sys.exit(f"cannot read the motor line of mjstepper info:\n{out}")
     p = dict(Nr=int(m.group(1)), R=float(m.group(2)), L=float(m.group(3)), Km=float(m.group(4)))
-    tree = ET.parse(os.path.join(ROOT, CONTROLLERS["STMMS"]["model"]))
+    with open(os.path.join(ROOT, CONTROLLERS["STMMS"]["model"]), encoding="utf-8") as f:
+        # the header comment holds "--ctrl", which MuJoCo accepts and strict XML does not
+        tree = ET.ElementTree(ET.fromstring(re.sub(r"<!--.*?-->", "", f.read(), flags=re.S)))
     act = tree.find(".//actuator/plugin[@name='shaft']")
     cfg = {c.get("key"): c.get("value") for c in act.findall("config")}
     load = tree.find(".//actuator/general[@name='load']")
@@ -165,6 +167,9 @@ def metrics(r, p):
         e1_cruise_mean=float(np.mean(e1[cr])),
         e1_cruise_pp=float(np.ptp(e1[cr])),
         e1_end=float(abs(e1[-1])),
+        e1_end_signed=float(e1[-1]),
+        e1_before=float(np.max(np.abs(e1[t < MOTION[0] - 1e-9]))),
+        detent_end=float(r["torque_detent"][-1]),
         e1_rest_pp=float(np.ptp(e1[window(t, (3.75, DURATION))])),
         v_peak=float(np.max(v)),
         i_rms=float(np.sqrt(np.mean(di2[mo]))),
@@ -319,32 +324,41 @@ def sampled_loop(c, p, period, numeric=False, inertia_ratio=1.0):
     return float(abs(ev[i])), float(abs(np.angle(ev[i])) / (2 * math.pi * period))
 
 
-def bisect(stable, lo, hi, log=True):
-    """Boundary of `stable` between lo (stable) and hi (unstable)."""
+MARGIN = 1e-9   # the e0 integrator's pole sits within ~1e-9 of z = 1 at these periods: stable
+
+
+def stable(radius):
+    return radius < 1 + MARGIN
+
+
+def boundary(is_stable, lo, hi):
+    """Largest x in [lo, hi] with is_stable(x), by bisection on a log scale; None if lo is not
+    stable, hi if hi is."""
+    if not is_stable(lo):
+        return None
+    if is_stable(hi):
+        return hi
     for _ in range(60):
-        mid = math.sqrt(lo * hi) if log else 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
+        mid = math.sqrt(lo * hi)
+        lo, hi = (mid, hi) if is_stable(mid) else (lo, mid)
     return lo
 
 
 def stability_table(p):
+    """Per controller: the sampled loop at the models' period and at 5 kHz, the longest stable
+    period (the scan in the report's table is monotonic: stable below, unstable above), and for the
+    STMMS the largest controller J that is stable at 5 kHz."""
     rows = {}
     for name, c in CONTROLLERS.items():
-        row = {}
-        for label, period in [("ideal", p["isr"]), ("bench", BENCH_PERIOD)]:
-            row[label] = sampled_loop(c, p, period)
-        if row["ideal"][0] < 1:
-            hi = BENCH_PERIOD if row["bench"][0] >= 1 else 1e-2
-            row["max_period"] = bisect(lambda T: sampled_loop(c, p, T)[0] < 1, p["isr"], hi)
-        else:
-            row["max_period"] = float("nan")
-        if row["bench"][0] >= 1:
-            row["max_ratio"] = bisect(lambda a: sampled_loop(c, p, BENCH_PERIOD, inertia_ratio=a)[0] < 1,
-                                      1e-6, 1.0)
-        else:
-            row["max_ratio"] = float("nan")
+        row = {"ideal": sampled_loop(c, p, p["isr"]), "bench": sampled_loop(c, p, BENCH_PERIOD)}
+        row["max_period"] = boundary(lambda T: stable(sampled_loop(c, p, T)[0]), p["isr"], 1e-2)
         if c["kind"] == "foc":
             row["bench_numeric"] = sampled_loop(c, p, BENCH_PERIOD, numeric=True)
+            row["max_period_numeric"] = boundary(
+                lambda T: stable(sampled_loop(c, p, T, numeric=True)[0]), p["isr"], 1e-2)
+        else:
+            row["max_ratio"] = boundary(
+                lambda a: stable(sampled_loop(c, p, BENCH_PERIOD, inertia_ratio=a)[0]), 1e-3, 1.0)
         rows[name] = row
     return rows
 
@@ -401,12 +415,14 @@ def phase_figure(runs, kind, title, name, zoom=(0.95, 1.05)):
         for col, m in enumerate([np.ones_like(z), z]):
             a = ax[row, col]
             if kind == "voltage":
-                a.plot(t[m], r["voltage_a"][m], lw=0.5, label="va")
-                a.plot(t[m], r["voltage_b"][m], lw=0.5, label="vb")
+                a.plot(t[m], r["voltage_a"][m], lw=0.5, label="va", antialiased=bool(col))
+                a.plot(t[m], r["voltage_b"][m], lw=0.5, label="vb", antialiased=bool(col))
                 a.set_ylabel("voltage (V)")
             else:
-                a.plot(t[m], r["current_ref_a"][m], lw=1.2, color="k", ls="--", label="iad")
-                a.plot(t[m], r["current_a"][m], lw=0.6, color=CONTROLLERS[n]["colour"], label="ia")
+                a.plot(t[m], r["current_a"][m], lw=1.4 if col else 0.5, color=CONTROLLERS[n]["colour"],
+                       label="ia", antialiased=bool(col))
+                a.plot(t[m], r["current_ref_a"][m], lw=0.8 if col else 0.5, color="k", ls="--",
+                       label="iad", antialiased=bool(col))
                 a.set_ylabel("phase A current (A)")
             a.grid(alpha=0.3)
         ax[row, 0].set_title(n, fontsize=9, loc="left")
@@ -522,15 +538,26 @@ def sci(x, digits=3):
     return f"{x:.{digits}g}" if 1e-2 <= abs(x) < 1e4 else f"{x:.{digits - 1}e}"
 
 
-def order(values, smaller_first=True):
-    """'A < B < C' from {name: value}."""
-    items = sorted(values.items(), key=lambda kv: kv[1], reverse=not smaller_first)
+def tied(values):
+    v = list(values.values())
+    return max(v) - min(v) <= 1e-9 * max(abs(x) for x in v)
+
+
+def order(values):
+    """'A (x) < B (y) < C (z)' from {name: value}, or the tie."""
+    if tied(values):
+        return "all equal at " + sci(next(iter(values.values())))
+    items = sorted(values.items(), key=lambda kv: kv[1])
     return " < ".join(f"{k} ({sci(v)})" for k, v in items)
 
 
 def holds(values, expected):
-    """Does the measured ordering (ascending) equal `expected` (a list of names, ascending)?"""
-    return [k for k, _ in sorted(values.items(), key=lambda kv: kv[1])] == expected
+    """Does the measured ascending order equal `expected` (names, ascending)? A tie does not."""
+    return not tied(values) and [k for k, _ in sorted(values.items(), key=lambda kv: kv[1])] == expected
+
+
+def rank(values, name):
+    return [k for k, _ in sorted(values.items(), key=lambda kv: kv[1])].index(name) + 1
 
 
 def quote(text, phrase):
@@ -541,104 +568,229 @@ def quote(text, phrase):
     return f"“{phrase}”"
 
 
+def listing(names):
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+
+
 def write_report(p, runs, extra, measured, stability, figs, sim_wall, wall):
     with open(SEED, encoding="utf-8") as f:
         paper = f.read()
     M = {cond: {n: r["metrics"] for n, r in rs.items()} for cond, rs in runs.items()}
     names = list(CONTROLLERS)
-    rows = []
-    for cond, (label, _) in CONDITIONS.items():
-        for n in names:
-            m = M[cond][n]
-            if "e1_motion" not in m:
-                rows.append(f"| {label} | {n} | " + " | ".join(["—"] * 9) + f" | {m['verdict']} |")
-                continue
-            rows.append(
-                f"| {label} | {n} | {sci(m['e1_motion'])} | {sci(m['e1_transient'])} | "
+    ok = {cond: all("e1_motion" in M[cond][n] for n in names) for cond in CONDITIONS}
+    if not (ok["a"] and ok["c"]):
+        sys.exit("a run of condition (a) or (c) failed: " + "; ".join(
+            f"{cond} {n}: {M[cond][n]['verdict']}" for cond in "ac" for n in names))
+    a, b, c = M["a"], M["b"], M["c"]
+    C = CONTROLLERS
+    stiffness = {n: p["J"] * (K1 + C[n]["k1p"] * K2) for n in names}   # J·(k1 + k1p·k2), N·m/rad
+
+    # --- the metric table ---
+    def row(label, n, m):
+        if "e1_motion" not in m:
+            return f"| {label} | {n} | " + " | ".join(["—"] * 8) + f" | {m['verdict']} |"
+        return (f"| {label} | {n} | {sci(m['e1_motion'])} | {sci(m['e1_transient'])} | "
                 f"{sci(m['e1_cruise_pp'])} | {sci(m['e1_end'])} | {m['v_peak']:.2f} | {sci(m['i_rms'])} | "
                 f"{100 * m['bus_fraction']:.0f} % | {m['lost_max']:.0f} | {m['verdict']} |")
-    if extra is not None and "e1_motion" in extra["metrics"]:
-        m = extra["metrics"]
-        rows.append(
-            f"| {EXTRA[2]} | {EXTRA[1]} | {sci(m['e1_motion'])} | {sci(m['e1_transient'])} | "
-            f"{sci(m['e1_cruise_pp'])} | {sci(m['e1_end'])} | {m['v_peak']:.2f} | {sci(m['i_rms'])} | "
-            f"{100 * m['bus_fraction']:.0f} % | {m['lost_max']:.0f} | {m['verdict']} |")
+    rows = [row(CONDITIONS[cond][0], n, M[cond][n]) for cond in CONDITIONS for n in names]
+    if extra is not None:
+        rows.append(row(EXTRA[2], EXTRA[1], extra["metrics"]))
     table = "\n".join(rows)
+    extra_m = extra["metrics"] if extra is not None else {"verdict": "not run"}
 
-    # precision of the CSV
+    # --- CSV precision ---
     gaps = [m["print_gap"] for ms in M.values() for m in ms.values() if "print_gap" in m]
     quantum = max(m["print_quantum"] for ms in M.values() for m in ms.values() if "print_quantum" in m)
+    foc_a = min(a["FOC case 1"]["e1_motion"], a["FOC case 2"]["e1_motion"])
 
-    # closed form of the STMMS cruise lag: the winding lags iqd by atan(a), a = Nr·ω·L/R, so the
-    # drive must ask (1 + a²)× the torque it gets; the excess comes from k1 + k1p·k2 acting on e1.
+    # --- (a): the STMMS lag in closed form. The winding lags iad by atan(Nr·ω·L/R), so the drive
+    # must ask (1 + (Nr·ω·L/R)²)× the torque it gets; the excess comes from J·(k1 + k1p·k2)·e1.
     def stmms_lag(L):
-        a = p["Nr"] * p["speed"] * L / p["R"]
-        tau0 = p["tl"] + p["B"] * p["speed"]
-        return a, tau0 * a * a / (p["J"] * (K1 + CONTROLLERS["STMMS"]["k1p"] * K2))
+        ratio = p["Nr"] * p["speed"] * L / p["R"]
+        return ratio, -(p["tl"] + p["B"] * p["speed"]) * ratio ** 2 / stiffness["STMMS"]
     a_lag, lag = stmms_lag(p["L"])
     _, lag_54 = stmms_lag(5.4e-3)
 
-    # K(35) and the linearised loop at the ripple frequencies
-    orders = sorted(next(iter(measured.values()))) if measured else []
-    k35_rows = []
-    for n, c in CONTROLLERS.items():
+    # --- (c): K(35), the linearised loop, the measurement ---
+    orders = sorted(measured["STMMS"])
+    k35_rows, over_k35, over_full = [], {}, []
+    for n in names:
+        over_k35[n] = []
         for h in orders:
-            hz = measured[n][h]["hz"]
-            kk = float(k35(hz, c["k1p"]))
-            full = float(full_sensitivity(c, p, p["speed"], [hz])[0])
-            meas = measured[n][h]["ratio"]
+            x = measured[n][h]
+            kk = float(k35(x["hz"], C[n]["k1p"]))
+            full = float(full_sensitivity(C[n], p, p["speed"], [x["hz"]])[0])
+            over_k35[n].append(x["ratio"] / kk)
+            over_full.append(abs(x["ratio"] / full - 1))
             h18 = f" (SPEC H18: {sci(H18[n], 4)})" if h == 1 else ""
-            k35_rows.append(f"| {n} | {h} | {hz:g} | {sci(kk, 4)}{h18} | {sci(full)} | {sci(meas)} | "
-                            f"{meas / kk:.2f} | {meas / full:.3f} | {sci(measured[n][h]['e1'])} |")
+            k35_rows.append(f"| {n} | {h} | {x['hz']:g} | {sci(kk, 4)}{h18} | {sci(full)} | {sci(x['ratio'])} | "
+                            f"{x['ratio'] / kk:.2f} | {x['ratio'] / full:.3f} | {sci(x['e1'])} |")
     k35_table = "\n".join(k35_rows)
-    poles = {}
-    for n, c in CONTROLLERS.items():
-        ev = np.linalg.eigvals(linearised(c, p, p["speed"])[0])
-        osc = [e for e in ev if e.imag > 1 and abs(e.imag) > 2 * abs(p["Nr"] * p["speed"])]
-        poles[n] = osc
-    stmms_mode = poles["STMMS"][0] if poles["STMMS"] else None
+    k35_50 = {n: float(k35(measured[n][1]["hz"], C[n]["k1p"])) for n in names}
+    h18_ok = all(abs(k35_50[n] / H18[n] - 1) < 0.02 for n in names)
+    k35_order = [k for k, _ in sorted(k35_50.items(), key=lambda kv: kv[1])]
 
+    def span(values):
+        return f"{min(values):.2f}" if max(values) - min(values) < 0.05 else f"{min(values):.2f}-{max(values):.2f}"
+    ev = np.linalg.eigvals(linearised(C["STMMS"], p, p["speed"])[0])
+    osc = [e for e in ev if e.imag > 0]
+    mode = max(osc, key=lambda e: e.imag) if osc else None
+    mode_text = (f"a lightly damped mode at {mode.imag / (2 * math.pi):.0f} Hz (ζ = {-mode.real / abs(mode):.3f})"
+                 if mode is not None else "no oscillatory mode")
+    pp = {n: c[n]["e1_cruise_pp"] for n in names}
+    best_ripple = min(pp, key=pp.get)
+    ripple_holds = holds(pp, ["STMMS", "FOC case 2", "FOC case 1"])
+    # The FOC's analytic i̇d takes ω̇ from the measured current, which misses any torque the
+    # controller does not model (τ̃): τ̇d is then off by (k1p + k2)·τ̃, and the current loop turns
+    # that into a current error of (k1p + k2)·τ̃/(ρ·Km): the torque error is (1 + (k1p + k2)/ρ)·τ̃.
+    amplify = {n: 1.0 if C[n]["kind"] == "stmms" else 1 + (C[n]["k1p"] + K2) / C[n]["rho"] for n in names}
+    rest_rows = "\n".join(
+        f"| {n} | {sci(stiffness[n])} | {c[n]['detent_end']:+.4f} | {amplify[n]:.3f} | "
+        f"{sci(-amplify[n] * c[n]['detent_end'] / stiffness[n])} | "
+        f"{sci(c[n]['e1_end_signed'])} | {sci(c[n]['e1_before'])} |" for n in names)
+
+    # --- (b) ---
+    b_unstable = [n for n in names if b[n]["unstable"]]
+    if len(b_unstable) == len(names):
+        b_head = "All three controllers are unstable at 5 kHz in these runs."
+    elif b_unstable:
+        b_head = f"{listing(b_unstable)} {'is' if len(b_unstable) == 1 else 'are'} unstable at 5 kHz in these runs."
+    else:
+        b_head = "No controller is unstable at 5 kHz in these runs."
+    nonfinite = [n for n in names if b[n].get("nonfinite") or b[n].get("reset")]
+    b_bound = ("Nothing diverges to NaN or resets: the {:g} V bus bounds the voltages, so an instability "
+               "ends in a limit cycle at the bus.".format(p["Vbus"]) if not nonfinite else
+               f"{listing(nonfinite)} produced non-finite or huge values (or MuJoCo reset).")
+    quiet_start = all(b[n].get("e1_before", 1) == 0 for n in names)
+    b_start = ("Each run sits exactly at its equilibrium until θd starts to move at 0.5 s (e1 = 0 to "
+               "the last digit: ideal sensors, no noise, nothing to grow from); the oscillation starts "
+               "with the motion and persists after θd stops." if quiet_start else "")
     stab_rows = []
     for n in names:
-        s = stability[n]
-        mb = M["b"][n]
-        num = s.get("bench_numeric")
+        st = stability[n]
+        num = st.get("bench_numeric")
+        longest = st["max_period"]
+        longest_num = st.get("max_period_numeric")
+
+        def period(T):
+            return "—" if T is None else f"{sci(T * 1e6)} µs ({sci(1e-3 / T)} kHz)"
         stab_rows.append(
-            f"| {n} | {s['ideal'][0]:.6f} | {s['bench'][0]:.3f} ({s['bench'][1]:.0f} Hz) | "
-            f"{mb.get('rest_frequency', float('nan')):.0f} Hz | "
-            + (f"{num[0]:.3f} ({num[1]:.0f} Hz) | " if num else "— (no i̇d) | ")
-            + f"{sci(s['max_period'] * 1e6)} µs ({sci(1 / s['max_period'] / 1e3)} kHz) | "
-            + (f"{s['max_ratio']:.3f} |" if not math.isnan(s['max_ratio']) else "stable at 1 |"))
+            f"| {n} | {'yes' if stable(st['ideal'][0]) else 'no'} | {st['bench'][0]:.3f} ({st['bench'][1]:.0f} Hz) | "
+            f"{b[n].get('rest_frequency', float('nan')):.0f} Hz | {period(longest)} | "
+            + (f"{num[0]:.3f} ({num[1]:.0f} Hz) | {period(longest_num)} |" if num else "— | — |"))
     stab_table = "\n".join(stab_rows)
+    rho_eff = {n: C[n]["rho"] + C[n]["k1p"] + K2 for n in names if C[n]["kind"] == "foc"}
+    shrink = (p["R"] * BENCH_PERIOD / p["L"])
+    zoh = (1 - math.exp(-shrink)) / shrink        # the winding's own decay over one period
+    pole = {n: 1 - rho_eff[n] * BENCH_PERIOD * zoh for n in rho_eff}
+    pole_rho = {n: 1 - C[n]["rho"] * BENCH_PERIOD * zoh for n in rho_eff}
+    freq_match = all(abs(stability[n]["bench"][1] - b[n].get("rest_frequency", 0)) < 0.05 * stability[n]["bench"][1]
+                     for n in b_unstable) if b_unstable else False
+    ratio_stmms = stability["STMMS"].get("max_ratio")
+    num_case2 = stability["FOC case 2"]["bench_numeric"][0]
 
-    # --- claims, measured orderings ---
-    def claim_lines(metric, expected, what):
-        out = []
-        for cond, (label, _) in CONDITIONS.items():
-            vals = {n: M[cond][n].get(metric) for n in names}
-            if any(v is None for v in vals.values()):
-                out.append(f"- **{label}**: a run failed; no ordering.")
-                continue
-            unstable = [n for n in names if M[cond][n]["unstable"]]
-            verdict = "holds" if holds(vals, expected) else "does not hold"
-            note = ""
-            if unstable:
-                note = (f" — but {', '.join(unstable)} {'is' if len(unstable) == 1 else 'are'} unstable "
-                        "here, so the ordering compares limit cycles, not tracking")
-            out.append(f"- **{label}**: {what} {order(vals)}: the paper's order **{verdict}**{note}.")
-        return "\n".join(out)
-
+    # --- claims ---
     c1_expected = ["STMMS", "FOC case 2", "FOC case 1"]
     c2_expected = ["STMMS", "FOC case 1", "FOC case 2"]
     c3_expected = ["FOC case 1", "FOC case 2", "STMMS"]
-    a, c = M["a"], M["c"]
-    foc_max_a = max(a["FOC case 1"]["e1_motion"], a["FOC case 2"]["e1_motion"])
-    ratio_a = a["STMMS"]["e1_motion"] / foc_max_a
-    pp = {n: c[n]["e1_cruise_pp"] for n in names}
-    ripple_holds = holds(pp, c1_expected)
-    b_unstable = [n for n in names if M["b"][n]["unstable"]]
-    extra_m = extra["metrics"] if extra is not None else {}
-    stmms_tr_c = c["STMMS"]["e1_transient"]
+
+    def claim_lines(metric, expected, what):
+        out = []
+        for cond, (label, _) in CONDITIONS.items():
+            if not ok[cond]:
+                out.append(f"- **{label}**: a run failed; no ordering.")
+                continue
+            vals = {n: M[cond][n][metric] for n in names}
+            unstable = [n for n in names if M[cond][n]["unstable"]]
+            if tied(vals):
+                verdict = "cannot be judged (a tie)"
+            else:
+                verdict = "holds" if holds(vals, expected) else "does not hold"
+            note = ""
+            if unstable:
+                note = (f"; {listing(unstable)} {'is' if len(unstable) == 1 else 'are'} unstable here, so "
+                        "this compares limit cycles, not tracking")
+            out.append(f"- **{label}**: {what} {order(vals)}: the paper's order **{verdict}**{note}.")
+        return "\n".join(out)
+
+    def cell(cond, metric, expected):
+        if not ok[cond]:
+            return "run failed"
+        vals = {n: M[cond][n][metric] for n in names}
+        if all(M[cond][n]["unstable"] for n in names):
+            return "not applicable: all three unstable"
+        if tied(vals):
+            return "tie"
+        text = "holds" if holds(vals, expected) else "does not hold"
+        return text + (" (some runs unstable)" if any(M[cond][n]["unstable"] for n in names) else "")
+
+    tr = {cond: {n: M[cond][n]["e1_transient"] for n in names} for cond in "ac"}
+    c1a = holds(tr["a"], c1_expected)
+    stmms_last_a = rank(tr["a"], "STMMS") == 3
+    lag_dominates = c["STMMS"]["e1_transient"] < 1.5 * a["STMMS"]["e1_transient"]
+    vp = {cond: {n: M[cond][n]["v_peak"] for n in names} for cond in "ac"}
+    c2_fails = [CONDITIONS[cond][0] for cond in "ac" if not holds(vp[cond], c2_expected)]
+    stmms_v_top = {cond: rank(vp[cond], "STMMS") == 3 for cond in "ac"}
+    all_at_bus = ok["b"] and all(b[n]["v_peak"] >= p["Vbus"] * (1 - 1e-6) for n in names)
+    ir = {cond: {n: M[cond][n]["i_rms"] for n in names} for cond in "ac"}
+    c3_holds = [CONDITIONS[cond][0] for cond in "ac" if holds(ir[cond], c3_expected)]
+    position_rank = {"a": rank(tr["a"], "STMMS"), "c": rank(pp, "STMMS")}
+    c1_text = []
+    if stmms_last_a:
+        c1_text.append(
+            f"Under (a) the order is reversed for the STMMS: its error is "
+            f"{a['STMMS']['e1_transient'] / max(tr['a']['FOC case 1'], tr['a']['FOC case 2']):.0f}× the larger "
+            f"FOC's. Kim's singular-perturbation argument makes the STMMS error O(L), and with this "
+            f"reconstructed L that is {sci(a['STMMS']['e1_motion'])} rad (the lag of condition (a) above), while "
+            "an ideal continuous FOC tracks the current, hence the torque, almost exactly. The paper's "
+            "simulation shows the opposite; with Table 1 lost we cannot tell which of its parameters (a "
+            "smaller L, a different J in the controller) or of its implementation details (how i̇d was "
+            "formed, the solver) made its FOC worse.")
+    elif c1a:
+        c1_text.append("Under (a) the paper's order is reproduced.")
+    else:
+        c1_text.append(f"Under (a) the order differs from the paper's: {order(tr['a'])}.")
+    if ripple_holds:
+        c1_text.append("Under (c) the order of K(35) appears in the cruise ripple, as Kim's experiment "
+                       "(Fig. 9) reports and explains with K(35): a higher k1p rejects torque ripple better.")
+    else:
+        c1_text.append(f"Under (c) the cruise ripple does not follow the paper's order: {order(pp)}.")
+    if lag_dominates:
+        c1_text.append(
+            f"In the acceleration and deceleration windows under (c) the STMMS's max |e1| "
+            f"({sci(c['STMMS']['e1_transient'])} rad, against {sci(a['STMMS']['e1_transient'])} rad without "
+            "detent) is still its O(L) lag, not the ripple, and the FOCs' include the static detent "
+            "offset they start from (below).")
+    if ok["b"] and all(b[n]["unstable"] for n in names):
+        c1_text.append("Under (b) nothing tracks.")
+    c2_text = []
+    if c2_fails:
+        c2_text.append(
+            f"It does not hold under {listing(c2_fails)}. In these simulations the FOC's high gain costs "
+            "no voltage: its current error is tiny, so L·ρ·(iad − ia) is tiny, and its voltage is "
+            f"R·i + L·i̇d + back-EMF, little more than the back-EMF Km·ω = {p['Km'] * p['speed']:.2f} V.")
+        if stmms_v_top["a"]:
+            c2_text.append(
+                f"The STMMS applies R·iad + back-EMF with iad {1 + a_lag ** 2:.2f}× the current the load "
+                "needs (the lag of condition (a)), hence the largest peak. The paper's ordering needs "
+                "something for the high current gain to amplify (sensor noise, quantisation, switching)"
+                + (": the detent ripple of (c) is not enough." if not holds(vp["c"], c2_expected) else "."))
+    else:
+        c2_text.append("It holds under (a) and (c).")
+    if all_at_bus:
+        c2_text.append("Under (b) every controller sits at the bus.")
+    c3_text = []
+    if c3_holds:
+        c3_text.append(
+            f"Reproduced under {listing(c3_holds)}: the current error decays at ρ in the FOC "
+            f"({C['FOC case 1']['rho']:g}/s in case 1, {C['FOC case 2']['rho']:g}/s in case 2) and only "
+            f"at R/L = {p['R'] / p['L']:.0f}/s in the STMMS.")
+    for cond, what in [("a", "max |e1| during acceleration and deceleration"), ("c", "cruise ripple")]:
+        r_ = position_rank[cond]
+        c3_text.append(
+            f"Under {CONDITIONS[cond][0]} the STMMS, worst at tracking current, ranks {r_} of 3 by {what}: "
+            + ("Kim's point that current tracking does not make position tracking is borne out."
+               if r_ == 1 else "Kim's point is not borne out there."))
 
     text = f"""# Kim 2016 reproduced
 
@@ -649,10 +801,10 @@ Every number below was measured by the command that regenerates this page:
 
     bash scripts/reproduce_kim2016.sh
 
-(it builds `mjstepper`, then runs `src/tools/python/reproduce_kim2016.py`, which runs the
-{sum(len(r) for r in runs.values()) + (extra is not None)} simulations two at a time on the 2-core
-machine of BENCHMARKS.md: {sim_wall:.0f} s of simulation and log parsing, {wall:.0f} s in all after
-the build). Logs go to `logs/reproduction/kim2016_*.csv`, figures to `renders/kim2016/`.
+(it builds, then runs `src/tools/python/reproduce_kim2016.py`, which runs the
+{sum(len(r) for r in runs.values()) + (extra is not None)} simulations two at a time; {sim_wall:.0f} s for
+the simulations and their logs, {wall:.0f} s in all after the build, on the 2-core machine of
+BENCHMARKS.md). Logs go to `logs/reproduction/kim2016_*.csv`, figures to `renders/kim2016/`.
 
 ## Setup
 
@@ -661,48 +813,53 @@ the build). Logs go to `logs/reproduction/kim2016_*.csv`, figures to `renders/ki
   Nr = {p['Nr']}, R = {p['R']:g} Ω, L = {p['L']:g} H, Km = {p['Km']:g} N·m/A; J = {p['J']:g} kg·m² as the
   actuator's armature, B = {p['B']:g} N·m·s/rad as its damping, τl = {p['tl']:g} N·m opposing the
   motion (a `general` actuator named `load`), {p['Vbus']:g} V H-bridges (Kim's Vs), control period
-  {p['isr'] * 1e6:g} µs with no computation delay, ideal sensors (exact θ and ω; encoder off), MuJoCo
+  {p['isr'] * 1e6:g} µs with no computation delay, ideal sensors (exact θ and ω, no encoder), MuJoCo
   step {p['timestep'] * 1e6:g} µs. Gains (Kim §5): k0 = {K0:g}, k1 = {K1:g}, k2 = {K2:g}; STMMS
-  k1p = {CONTROLLERS['STMMS']['k1p']:g}; FOC case 1 k1p = {CONTROLLERS['FOC case 1']['k1p']:g},
-  ρ = {CONTROLLERS['FOC case 1']['rho']:g}; case 2 k1p = {CONTROLLERS['FOC case 2']['k1p']:g},
-  ρ = {CONTROLLERS['FOC case 2']['rho']:g}. The controller's J, B, τl equal the plant's. The FOC's
-  i̇ad, i̇bd are `foc_derivative=analytic` (K(27) differentiated along the motion, ω̇ from the
-  measured current through the controller's model): the paper does not say how it got them.
+  k1p = {C['STMMS']['k1p']:g}; FOC case 1 k1p = {C['FOC case 1']['k1p']:g}, ρ = {C['FOC case 1']['rho']:g};
+  FOC case 2 k1p = {C['FOC case 2']['k1p']:g}, ρ = {C['FOC case 2']['rho']:g}. The controller's J, B, τl
+  equal the plant's. The FOC's i̇ad, i̇bd are `foc_derivative=analytic` (K(27) differentiated along
+  the motion, ω̇ from the measured current through the controller's model); the paper does not say
+  how it got them.
 - **The motor is a reconstruction.** Kim's Table 1 is lost in the extracted text; SPEC §4 rebuilds
-  the `kim2016` row from the PK268-02B class (Km = T_H/(√2·Ir); R, L scaled from sibling Oriental
-  motors, "L could be as low as 5.4 mH"; J from the rotor-inertia class). The STMMS's error scales
-  with L (below), so every STMMS number here is tied to L = {p['L'] * 1e3:g} mH.
+  the `kim2016` row from the PK268-02B class (Km = T_H/(√2·Ir); R and L scaled from sibling
+  Oriental motors, L possibly as low as 5.4 mH; J from the rotor-inertia class). The STMMS's error
+  grows with L (condition (a)), so every STMMS number here belongs to L = {p['L'] * 1e3:g} mH.
 - Trajectory (Kim Fig. 1, SPEC §4), from the drive's own trapezoid profile with target 5π rad:
   θd = 0 until 0.5 s, accelerate at {p['accel']:.4g} rad/s² to {p['speed']:.4g} rad/s by 1.0 s, cruise
   to 3.0 s, decelerate, at rest at 5π from 3.5 s to 4 s.
 - Conditions: **(a)** the models as they are (the "ideal continuous-time drive" of SPEC §3);
   **(b)** Kim's bench sampling, `--set shaft.isr_period={BENCH_PERIOD:g}` (5 kHz, still no delay);
   **(c)** (a) plus Tsui 2009's detent harmonics on the motor,
-  `--set 'shaft.detent={DETENT}'` (a torque ripple at h·Nr·ω/2π = 50·h Hz at 2π rad/s: the
-  "torque ripple's harmonics" Kim blames for the ripple of his experiment).
+  `--set 'shaft.detent={DETENT}'`, a torque ripple at h·Nr·ω/2π = 50·h Hz at 2π rad/s, standing
+  in for the {quote(paper, "torque ripple's harmonics")} Kim names among the causes of his measured ripple.
 - e1 = θ − θd. Kim plots θd − θ = −e1, and so do the figures. **CSV precision**: the log prints 10
-  significant digits, so θ and θd (up to 15.7 rad) are printed to {quantum:.0e} rad, the size of
-  the FOC's whole error under (a). The study therefore reads e1 from the `load_angle` column,
-  δ = Nr·(θcmd − θ), which the drive forms in double precision before printing; e1 = −δ/Nr carries
-  10 significant digits of itself. Check: |(θ − θd)_printed − (−δ/Nr)| ≤ {max(gaps):.1e} rad in every
-  run, i.e. within the printing quantum. Below about 1e-14 rad, e1 is at the double rounding of
-  θcmd − θ itself (θ ≈ 15.7 rad).
-- "e1 at 4 s" is the last logged sample, t = {a['STMMS']['t_end']:g} s.
+  significant digits, so θ and θd (up to 15.7 rad) are printed to ±{quantum:.0e} rad, while the FOC's
+  whole error under (a) is {sci(foc_a)} rad: e1 = θ − θd taken from those two columns would be
+  quantised. The study therefore reads e1 from the `load_angle` column, δ = Nr·(θcmd − θ), which
+  the drive forms in double precision before printing, so e1 = −δ/Nr carries 10 significant
+  digits of its own. Check: the two agree to within {max(gaps):.1e} rad in every run (the printing
+  quantum of θ and θd). Below about 1e-14 rad e1 reaches the double rounding of θcmd − θ itself.
+  A dedicated e1 signal would make this detour unnecessary.
+- "\\|e1\\| at 4 s" is the last logged sample, t = {a['STMMS']['t_end']:g} s.
 
 ## Metrics
 
 Over the motion 0.5-3.5 s unless stated: max |e1|; max |e1| over the acceleration and deceleration
-only (0.5-1.0 s and 3.0-3.5 s, Kim's "transient"); e1 peak-to-peak in mid-cruise (1.5-2.5 s, the
-ripple); |e1| at the end; peak |v| = max over the run of |va| and |vb|; RMS current error
-sqrt(mean((ia − iad)² + (ib − ibd)²)) over 0.5-3.5 s; the share of samples from 0.5 s on with a
-phase voltage at the {p['Vbus']:g} V bus; the largest |lost steps| (4·round(δ/2π)) at any time. Verdict: a run
-is "unstable" when it has non-finite or huge values, or when a phase still sits at the bus in more
-than 1 % of the samples after θd has stopped (3.5-4 s: a limit cycle; the frequency is the peak of
-va's spectrum there).
+only (0.5-1.0 s and 3.0-3.5 s, where Kim's claim C1 is about); e1 peak-to-peak in mid-cruise
+(1.5-2.5 s: the ripple); |e1| at the end; peak |v| = max over the run of |va| and |vb|; RMS current
+error sqrt(mean((ia − iad)² + (ib − ibd)²)) over 0.5-3.5 s; the share of samples from 0.5 s on with
+a phase voltage at the {p['Vbus']:g} V bus; the largest |lost steps| (4·round(δ/2π)) at any time.
+Verdict: a run is "unstable" when it has non-finite or huge values, or when a phase still sits at
+the bus in more than 1 % of the samples after θd has stopped (3.5-4 s: a limit cycle, whose
+frequency is the peak of va's spectrum there).
 
 | condition | controller | max \\|e1\\| motion (rad) | max \\|e1\\| accel/decel (rad) | e1 p-p cruise (rad) | \\|e1\\| at 4 s (rad) | peak \\|v\\| (V) | RMS current error (A) | at the bus | max \\|lost steps\\| | verdict |
 |---|---|---|---|---|---|---|---|---|---|---|
 {table}
+
+The last row is an extra run, not one of the nine: FOC case 2 at 5 kHz with
+`foc_derivative=numeric` (backward difference of iad, ibd over one period), to see whether the
+analytic derivative causes its instability (condition (b)).
 
 ## Condition (a): the ideal drive (Kim Figs. 5-7)
 
@@ -712,18 +869,18 @@ va's spectrum there).
 
 ![]({figs.get('fig7_a', '')})
 
-The STMMS lags θd by a nearly constant {sci(-a['STMMS']['e1_cruise_mean'])} rad through the cruise. That
-lag is the winding's: without current feedback the current follows iad with the time constant L/R,
-and at Nr·ω = {p['Nr'] * p['speed']:.0f} rad/s electrical that is a lag of atan(Nr·ω·L/R) =
-{math.degrees(math.atan(a_lag)):.1f}° (Nr·ω·L/R = {a_lag:.3f}); the controller must ask
+The STMMS lags θd by a nearly constant {sci(-a['STMMS']['e1_cruise_mean'])} rad through the cruise.
+The lag is the winding's: without current feedback the current follows iad with the time constant
+L/R, which at Nr·ω = {p['Nr'] * p['speed']:.0f} rad/s (electrical) is a phase lag of atan(Nr·ω·L/R) =
+{math.degrees(math.atan(a_lag)):.1f}° (Nr·ω·L/R = {a_lag:.3f}). The controller must therefore ask
 1 + (Nr·ω·L/R)² = {1 + a_lag ** 2:.2f} times the torque it gets, and the extra comes from the position
-error through J·(k1 + k1p·k2): e1 ≈ −(τl + B·ω)·(Nr·ω·L/R)²/(J·(k1 + k1p·k2)) =
-{sci(-lag)} rad (measured mean {sci(a['STMMS']['e1_cruise_mean'])} rad; the integrator k0 is far too slow
-to remove it in 2 s). This is Kim's O(L) error: it grows with L², and with L = 5.4 mH the same
-closed form gives {sci(-lag_54)} rad. The FOC's current loop makes the torque equal τd to within
-the current error, which decays at ρ; with i̇d fed forward, the reduced error dynamics ė = A·e
-of K(26) start at e = 0 and stay there, and only the finite ρ leaves max |e1| =
-{sci(a['FOC case 1']['e1_motion'])} rad (case 1) and {sci(a['FOC case 2']['e1_motion'])} rad (case 2).
+error through J·(k1 + k1p·k2): e1 ≈ −(τl + B·ω)·(Nr·ω·L/R)²/(J·(k1 + k1p·k2)) = {sci(lag)} rad
+(measured mean {sci(a['STMMS']['e1_cruise_mean'])} rad; the integrator k0 is far too slow to remove it
+in 2 s). This is Kim's O(L) error; here it grows like L², and with L = 5.4 mH the same closed form
+gives {sci(lag_54)} rad. The FOC's current loop makes the torque equal τd up to a current error that
+decays at ρ; with i̇d fed forward the reduced error dynamics ė = A·e of K(26) start at e = 0 and
+stay there, and the finite ρ leaves max |e1| = {sci(a['FOC case 1']['e1_motion'])} rad (case 1) and
+{sci(a['FOC case 2']['e1_motion'])} rad (case 2), steps at the jerks of the profile.
 
 ## Condition (c): torque ripple from the detent (Kim's experiment, Fig. 9)
 
@@ -733,12 +890,12 @@ of K(26) start at e = 0 and stay there, and only the finite ρ leaves max |e1| =
 
 ![]({figs.get('fig7_c', '')})
 
-Eq. K(35) is Kim's own explanation of the ripple: E1/T̃ = (1/J)·s/(s³ + (k1p + k2)s² + (k1 + k1p·k2)s + k0).
-The table compares J·|E1/T̃| at each detent harmonic's frequency (h·Nr·ω/2π at 2π rad/s) from K(35),
-from the loop linearised about the cruise *with* the winding dynamics and the current law (the
-reduced model of K(35) assumes the torque equals τd; see `rotor_frame()` in the script), and as
-measured: the e1 amplitude over the detent-torque amplitude at that frequency in the cruise window,
-times J.
+Kim explains his measured ripple with eq. (35): {quote(paper, "the position ripples can be reduced more as the position control gain gets higher")}.
+The table compares J·|E1/T̃| at each detent harmonic's frequency (h·Nr·ω/2π at 2π rad/s): from
+K(35), E1/T̃ = (1/J)·s/(s³ + (k1p + k2)s² + (k1 + k1p·k2)s + k0); from the loop linearised about
+the cruise *with* the windings and the drive's current law (`rotor_frame()` in the script; K(35)
+is the reduced model, which assumes the torque equals τd); and as measured, the e1 amplitude over
+the detent-torque amplitude at that frequency in the cruise window, times J.
 
 | controller | h | f (Hz) | K(35) J·\\|E1/T̃\\| | linearised loop | measured | measured / K(35) | measured / linearised | e1 amplitude (rad) |
 |---|---|---|---|---|---|---|---|---|
@@ -746,76 +903,71 @@ times J.
 
 ![]({figs.get('k35', '')})
 
-K(35) reproduces SPEC H18 at 50 Hz and orders the three gain sets by k1p. The FOC case 1 ripple is
-what K(35) predicts; case 2's is about twice K(35), because its current loop (ρ = 10 000) is no faster
-than its k1p = 10 000, so the torque does not equal τd as K(35) assumes; the STMMS's is
-{measured['STMMS'][1]['ratio'] / float(k35(measured['STMMS'][1]['hz'], CONTROLLERS['STMMS']['k1p'])):.1f}-{max(measured['STMMS'][h]['ratio'] / float(k35(measured['STMMS'][h]['hz'], CONTROLLERS['STMMS']['k1p'])) for h in orders):.1f}× K(35), because its
-current lags by L/R and the loop through the winding has a lightly damped mode at
-{abs(stmms_mode.imag) / (2 * math.pi) if stmms_mode is not None else float('nan'):.0f} Hz (ζ = {(-stmms_mode.real / abs(stmms_mode)) if stmms_mode is not None else float('nan'):.3f}) that K(35) does not have. The
-linearised loop with the windings matches every measurement to within
-{100 * max(abs(measured[n][h]['ratio'] / float(full_sensitivity(CONTROLLERS[n], p, p['speed'], [measured[n][h]['hz']])[0]) - 1) for n in names for h in orders):.1f} %. Even so the STMMS rejects the
-ripple best: its cruise ripple is {pp['FOC case 1'] / pp['STMMS']:.1f}× smaller than case 1's and
-{pp['FOC case 2'] / pp['STMMS']:.1f}× smaller than case 2's.
+K(35) {"reproduces SPEC H18's values at 50 Hz (within 2 %)" if h18_ok else "does NOT reproduce SPEC H18's values at 50 Hz"}
+and orders the gain sets {" < ".join(k35_order)} in ripple sensitivity. Measured over K(35):
+STMMS {span(over_k35['STMMS'])}×, FOC case 1 {span(over_k35['FOC case 1'])}×, FOC case 2
+{span(over_k35['FOC case 2'])}×. K(35) assumes the motor's torque equals τd. In the FOC it does not,
+because of how i̇d is formed: the analytic i̇d takes ω̇ from the measured current, which misses the
+detent torque τ̃, so τ̇d is off by (k1p + k2)·τ̃ and the current loop turns that into a torque error
+(k1p + k2)/ρ·τ̃ on top of τ̃ itself. K(35) times 1 + (k1p + k2)/ρ = {amplify['FOC case 1']:.3f} (case 1)
+and {amplify['FOC case 2']:.3f} (case 2) is what was measured. The STMMS has no current loop: its current
+follows iad at R/L = {p['R'] / p['L']:.0f}/s, and its loop through the winding has {mode_text}, which
+K(35) does not have and which lifts the higher harmonics most. The loop linearised with the windings
+and the drives' laws captures both effects and matches every measurement to within
+{100 * max(over_full):.1f} %. {"The STMMS still rejects the ripple best" if best_ripple == "STMMS" else f"{best_ripple}, not the STMMS, rejects the ripple best"}:
+cruise ripple {order(pp)} (e1 peak-to-peak).
 
-The detent also holds a static error at rest: the integrator (k0 = {K0:g}) is too slow to remove the
-detent torque at the final position within 0.5 s, so |e1(4 s)| ≈ |τdet|/(J·(k1 + k1p·k2)), smallest
-for the stiffest gains.
+The detent also holds each rotor off θd while θd is at rest, before and after the motion: the models
+start at θ = 0 with the currents for τl alone, the detent torque there is not zero, and the
+integrator (k0 = {K0:g}) is far too slow to remove it within the run, so e1 ≈ −g·τdet/(J·(k1 + k1p·k2))
+with g = 1 for the STMMS and g = 1 + (k1p + k2)/ρ for the FOC (the ω̇ of its i̇d misses τdet, as above):
 
-## Condition (b): Kim's 5 kHz sampling with the controller's J equal to the plant's
+| controller | J·(k1 + k1p·k2) (N·m/rad) | τdet at 4 s (N·m) | g | −g·τdet/(J·(k1 + k1p·k2)) (rad) | e1 at 4 s (rad) | max \\|e1\\| before 0.5 s (rad) |
+|---|---|---|---|---|---|---|
+{rest_rows}
+
+## Condition (b): Kim's 5 kHz sampling, the controller's J equal to the plant's
 
 ![]({figs.get('bench', '')})
 
-{'All three controllers are' if len(b_unstable) == 3 else (', '.join(b_unstable) + (' is' if len(b_unstable) == 1 else ' are')) if b_unstable else 'No controller is'} unstable at 5 kHz in these runs.
-Nothing diverges to NaN: the {p['Vbus']:g} V bus bounds the voltages, so the instability ends in a limit
-cycle at the bus (table above). The runs sit exactly at their equilibrium until θd starts to move
-at 0.5 s (ideal sensors, no noise), then the oscillation grows from the first motion and persists
-after θd stops. STMMS: max |e1| {sci(M['b']['STMMS'].get('e1_motion'))} rad, speed swinging ±{M['b']['STMMS'].get('omega_rest', float('nan')):.0f} rad/s at rest, up to
-{M['b']['STMMS'].get('lost_max', float('nan')):.0f} full steps slipped at times (end: {M['b']['STMMS'].get('lost_end', float('nan')):.0f}). FOC case 1: ends {sci(M['b']['FOC case 1'].get('e1_end'))} rad off target.
-FOC case 2: ends {sci(M['b']['FOC case 2'].get('e1_end'))} rad off target, still oscillating.
+{b_head} {b_bound} {b_start}
+{"" if not ok["b"] else f"STMMS: max |e1| {sci(b['STMMS']['e1_motion'])} rad, speed swinging up to {b['STMMS']['omega_rest']:.0f} rad/s while θd is at rest, up to {b['STMMS']['lost_max']:.0f} full steps slipped at times ({b['STMMS']['lost_end']:.0f} at the end). FOC case 1: {sci(b['FOC case 1']['e1_end'])} rad off target at the end. FOC case 2: {sci(b['FOC case 2']['e1_end'])} rad off target at the end."}
 
 Why, from the sampled loop linearised at rest (q axis: rotor, winding, the drive's law, the voltage
-held over each period, e0 summed as the drive sums it; spectral radius ≥ 1 is unstable):
+held over each period, e0 summed as the drive sums it; spectral radius > 1 is unstable):
 
-| controller | spectral radius at {p['isr'] * 1e6:g} µs | at 200 µs (oscillation) | measured limit cycle | at 200 µs, numeric i̇d | longest stable period | largest stable controller J / plant J at 5 kHz |
+| controller | stable at {p['isr'] * 1e6:g} µs | spectral radius at 200 µs (its frequency) | measured limit cycle | longest stable period | at 200 µs, numeric i̇d | longest stable period, numeric i̇d |
 |---|---|---|---|---|---|---|
 {stab_table}
 
-SPEC §3 counts ρ·T = {CONTROLLERS['FOC case 1']['rho'] * BENCH_PERIOD:g} (case 1) and k1p·T = {CONTROLLERS['STMMS']['k1p'] * BENCH_PERIOD:g} (STMMS) as the reasons;
-the linear analysis refines both and adds case 2. With the analytic i̇d the FOC's voltage contains
-L·(k1p + k2)·(Km·iq)/(J·Km)·J = L·(k1p + k2)·iq of current feedback on top of L·ρ·iq (the ω̇ the
-controller differentiates comes from the measured current), so its current loop runs at
-ρ + k1p + k2: {CONTROLLERS['FOC case 1']['rho'] + CONTROLLERS['FOC case 1']['k1p'] + K2:g}/s (case 1) and {CONTROLLERS['FOC case 2']['rho'] + CONTROLLERS['FOC case 2']['k1p'] + K2:g}/s (case 2), i.e.
-{(CONTROLLERS['FOC case 1']['rho'] + CONTROLLERS['FOC case 1']['k1p'] + K2) * BENCH_PERIOD:.2f} and {(CONTROLLERS['FOC case 2']['rho'] + CONTROLLERS['FOC case 2']['k1p'] + K2) * BENCH_PERIOD:.2f} per period, beyond the
-deadbeat limit of 2: both oscillate at the Nyquist frequency, 2.5 kHz, as measured. The
-backward-difference i̇d does not save case 2 (radius above; the extra run
-"{EXTRA[2]}" in the metric table: {extra_m.get('verdict', 'not run')}). The STMMS
-has no current loop, and the unstable mode is the winding-loop mode of condition (c) (about
-{abs(stmms_mode.imag) / (2 * math.pi) if stmms_mode is not None else float('nan'):.0f} Hz) destabilised by the sampling delay, not k1p·T itself; the last column shows how much
-smaller the controller's J (all position gains scale with it) would have to be. Kim's experiment ran at
-5 kHz with these gains and was stable, so his bench cannot have had the loop gain these runs have
-(a different J in the controller, a filtered speed, or other gains); the paper does not say.
+{"The predicted frequencies of the unstable modes match the measured limit cycles (within 5 %)." if freq_match else "The predicted frequencies of the unstable modes and the measured limit cycles differ by more than 5 % for at least one controller (saturation shapes the limit cycle)."}
+SPEC §3 names ρ·T = {C['FOC case 1']['rho'] * BENCH_PERIOD:g} (case 1) and k1p·T = {C['STMMS']['k1p'] * BENCH_PERIOD:g} (STMMS).
+For the FOC, the analytic i̇d adds current feedback: τ̇d contains −J·(k1p + k2)·ω̇ with ω̇ computed
+from the measured current, so the voltage carries L·(k1p + k2)·iq on top of L·ρ·iq and the current
+loop runs at ρ + k1p + k2 = {rho_eff['FOC case 1']:g}/s (case 1) and {rho_eff['FOC case 2']:g}/s (case 2).
+Held over T = 200 µs the current error then maps to 1 − (ρ + k1p + k2)·T·(1 − e^(−RT/L))/(RT/L) =
+{pole['FOC case 1']:.2f} (case 1) and {pole['FOC case 2']:.2f} (case 2) times itself per period (ρ alone:
+{pole_rho['FOC case 1']:.2f} and {pole_rho['FOC case 2']:.2f}): an oscillation at the Nyquist frequency,
+{0.5 / BENCH_PERIOD:g} Hz. With the backward-difference i̇d case 2's radius is {num_case2:.2f}
+({"still unstable" if not stable(num_case2) else "stable"}; the extra run: {extra_m['verdict']}). The STMMS
+has no current loop; its unstable mode is the winding-loop mode of condition (c) (in the
+continuous loop at 2π rad/s: {mode_text}), destabilised by the sampling delay{f", and it would be stable at 5 kHz only with the controller's J (every position gain scales with it) at most {ratio_stmms:.2f} of the plant's" if ratio_stmms else ""}.
+Kim's experiment used these gains, {quote(paper, "The control sampling rate was 5 kHz")}, and the paper
+reports no instability, so his bench cannot have had the loop gain of these runs (a different J in
+the controller, filtered signals, other gains or rates); the paper does not say.
 
 ## Claims C1-C3 against the paper
 
-**C1, position error: STMMS < FOC case 2 < FOC case 1** (Figs. 5, 9). Paper:
-{quote(paper, "the overshoots in the position tracking error appeared during the acceleration and deceleration periods")}
-(case 1); {quote(paper, "the larger position control gain gave us the improvement of the position tracking performance during the transient response")}
-(case 2); {quote(paper, "the position tracking error of the STMMS was the smallest among three cases")}.
+**C1, position error: STMMS < FOC case 2 < FOC case 1** (Figs. 5, 9). Paper (simulation, case 1):
+{quote(paper, "the overshoots in the position tracking error appeared during the acceleration and deceleration periods")};
+case 2: {quote(paper, "the larger position control gain gave us the improvement of the position tracking performance during the transient response")};
+{quote(paper, "the position tracking error of the STMMS was the smallest among three cases")}.
 
 {claim_lines('e1_transient', c1_expected, 'max |e1| during acceleration and deceleration:')}
-- Cruise ripple (e1 p-p 1.5-2.5 s) under **(c)**: {order(pp)}: the paper's order
+- Cruise ripple (e1 p-p, 1.5-2.5 s) under **(c)**: {order(pp)}: the paper's order
   **{'holds' if ripple_holds else 'does not hold'}** for the ripple.
 
-Under (a) the ordering is reversed: the STMMS's error is {ratio_a:.0f}× the larger FOC's. Kim's
-singular-perturbation argument makes the STMMS error O(L), and with this reconstructed L that is
-{sci(a['STMMS']['e1_motion'])} rad, while an ideal continuous FOC tracks the current, hence the torque,
-almost exactly. The paper's simulation shows the opposite; with Table 1 lost we cannot tell which of
-its parameters (a smaller L, a different J in the controller) or of its implementation details
-(how i̇d was formed, the solver) made its FOC worse. Under (c) the order of K(35) appears in the
-ripple, as Kim's experiment (Fig. 9) reports and explains with K(35): a higher k1p rejects torque ripple
-better. In the acceleration and deceleration windows under (c) the STMMS's max |e1|
-({sci(stmms_tr_c)} rad) is still dominated by its O(L) lag, not by the ripple. Under (b) nothing
-tracks.
+{" ".join(c1_text)}
 
 **C2, peak voltage: STMMS < FOC case 1 < FOC case 2** (Figs. 6, 10). Paper:
 {quote(paper, "the STMMS had the smallest input voltages since the high electrical control gain part was not used")};
@@ -823,45 +975,26 @@ tracks.
 
 {claim_lines('v_peak', c2_expected, 'peak |v|:')}
 
-In the ideal simulation the FOC's high gain costs no voltage: its current error is tiny, so
-L·ρ·(iad − ia) is tiny, and its voltage is R·i + L·i̇d + back-EMF, about the back-EMF
-Km·ω = {p['Km'] * p['speed']:.2f} V plus little. The STMMS applies R·iad + back-EMF with
-iad {1 + a_lag ** 2:.2f}× the current it needs (the lag above), hence the larger peak. The paper's
-ordering needs something for the high gain to amplify (noise, quantisation, ripple): under (c) the
-detent ripple is not enough. Under (b) every controller sits at the bus.
+{" ".join(c2_text)}
 
 **C3, current tracking: FOC case 1 best, STMMS worst** (Figs. 7, 11). Paper:
 {quote(paper, "We see that the FOC (Case 1) had the best current tracking performance")};
-{quote(paper, "The STMMS had the poor current tracking performance since the STMMS did not use the high gain in the current-loop")}.
+{quote(paper, "The STMMS had the poor current tracking performance since the STMMS did not use the high gain in the current-loop")};
+{quote(paper, "high performance in the current tracking does not necessarily entail high performance in the position tracking")}.
 
 {claim_lines('i_rms', c3_expected, 'RMS current error:')}
 
-Reproduced under (a) and (c): the current error decays at ρ in the FOC (25 000/s in case 1,
-10 000/s in case 2) and only at R/L = {p['R'] / p['L']:.0f}/s in the STMMS. The paper's conclusion that
-{quote(paper, "high performance in the current tracking does not necessarily entail high performance in the position tracking")}
-is borne out under (c) (best current tracking, case 1, has the largest ripple), not under (a).
+{" ".join(c3_text)}
 
 ## Summary
 
 | claim | (a) ideal, 1 MHz | (b) 5 kHz | (c) 1 MHz + detent |
 |---|---|---|---|
+| C1 max \\|e1\\| accel/decel | {cell('a', 'e1_transient', c1_expected)} | {cell('b', 'e1_transient', c1_expected)} | {cell('c', 'e1_transient', c1_expected)} |
+| C1 cruise ripple | — | — | {'holds' if ripple_holds else 'does not hold'} |
+| C2 peak \\|v\\| | {cell('a', 'v_peak', c2_expected)} | {cell('b', 'v_peak', c2_expected)} | {cell('c', 'v_peak', c2_expected)} |
+| C3 current error | {cell('a', 'i_rms', c3_expected)} | {cell('b', 'i_rms', c3_expected)} | {cell('c', 'i_rms', c3_expected)} |
 """
-    summary = []
-    for label, metric, expected in [("C1 max \\|e1\\| accel/decel", "e1_transient", c1_expected),
-                                    ("C2 peak \\|v\\|", "v_peak", c2_expected),
-                                    ("C3 current error", "i_rms", c3_expected)]:
-        cells = []
-        for cond in CONDITIONS:
-            vals = {n: M[cond][n].get(metric) for n in names}
-            if any(v is None for v in vals.values()):
-                cells.append("run failed")
-            elif any(M[cond][n]["unstable"] for n in names):
-                cells.append(("holds" if holds(vals, expected) else "does not hold") + " (unstable runs)")
-            else:
-                cells.append("holds" if holds(vals, expected) else "does not hold")
-        summary.append(f"| {label} | " + " | ".join(cells) + " |")
-    summary.append(f"| C1 cruise ripple | — | — | {'holds' if ripple_holds else 'does not hold'} |")
-    text += "\n".join(summary) + "\n"
     with open(REPORT + ".tmp", "w", encoding="utf-8") as f:
         f.write(text)
     os.replace(REPORT + ".tmp", REPORT)
