@@ -415,14 +415,14 @@ def phase_figure(runs, kind, title, name, zoom=(0.95, 1.05)):
         for col, m in enumerate([np.ones_like(z), z]):
             a = ax[row, col]
             if kind == "voltage":
-                a.plot(t[m], r["voltage_a"][m], lw=0.5, label="va", antialiased=bool(col))
-                a.plot(t[m], r["voltage_b"][m], lw=0.5, label="vb", antialiased=bool(col))
+                a.plot(t[m], r["voltage_a"][m], lw=0.8 if col else 0.4, label="va")
+                a.plot(t[m], r["voltage_b"][m], lw=0.8 if col else 0.4, label="vb")
                 a.set_ylabel("voltage (V)")
-            else:
-                a.plot(t[m], r["current_a"][m], lw=1.4 if col else 0.5, color=CONTROLLERS[n]["colour"],
-                       label="ia", antialiased=bool(col))
-                a.plot(t[m], r["current_ref_a"][m], lw=0.8 if col else 0.5, color="k", ls="--",
-                       label="iad", antialiased=bool(col))
+            else:   # iad under ia: where they differ, the grey band or the dashes show
+                a.plot(t[m], r["current_ref_a"][m], lw=0.8 if col else 1.2,
+                       color="k" if col else "0.6", ls="--" if col else "-", label="iad", zorder=3 if col else 1)
+                a.plot(t[m], r["current_a"][m], lw=1.4 if col else 0.4, color=CONTROLLERS[n]["colour"],
+                       label="ia", zorder=2)
                 a.set_ylabel("phase A current (A)")
             a.grid(alpha=0.3)
         ax[row, 0].set_title(n, fontsize=9, loc="left")
