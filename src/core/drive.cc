@@ -93,7 +93,8 @@ Drive::Drive(DriveConfig config) : config_(std::move(config)) {
     detent_.push_back({.order = h.order, .weight = h.amplitude * UnitPhasor(h.phase)});
   }
   speed_feedback_ = config_.speed_feedback.value_or(DefaultSpeedFeedback(config_.controller));
-  velocity_gain_ = 1.0 - std::exp(-kTwoPi * config_.velocity_cutoff * config_.isr_period);  // S-17
+  velocity_estimator_ = {.period = config_.isr_period, .cutoff = config_.velocity_cutoff};
+  velocity_gain_ = velocity_estimator_.Gain();  // S-17, once at load
 }
 
 DriveState Drive::Load(const double* values) const {
@@ -215,9 +216,7 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
     auto tick = [&](long k) {
       // Encoder (S-16) and the backward-difference velocity estimate (S-17), every tick.
       const double theta_meas = EncoderAngle(theta_at(t), config_.encoder_counts);
-      const double raw = (theta_meas - s->theta_meas) / period;
-      s->omega_est += velocity_gain_ * (raw - s->omega_est);
-      s->theta_meas = theta_meas;
+      velocity_estimator_.Update(velocity_gain_, theta_meas, &s->theta_meas, &s->omega_est);
       const Sample sample{
           .command = command_at(t),
           .feedback = {.theta = theta_meas,

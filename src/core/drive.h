@@ -27,6 +27,7 @@
 #include "core/motion_profile.h"
 #include "core/motor_params.h"
 #include "core/power_stage.h"
+#include "core/sensors/velocity_estimator.h"
 
 namespace mjstepper {
 
@@ -176,7 +177,8 @@ class Drive {
   StateLayout layout_;
   PowerStage stage_;
   SpeedFeedback speed_feedback_ = SpeedFeedback::kEstimate;
-  double velocity_gain_ = 0;  // a = 1 − exp(−2π·fc·T) of the S-17 low-pass
+  VelocityEstimator velocity_estimator_;  // S-17
+  double velocity_gain_ = 0;              // its a = 1 − exp(−2π·fc·T), computed once
 };
 
 }  // namespace mjstepper

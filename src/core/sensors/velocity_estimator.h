@@ -21,8 +21,12 @@ struct VelocityEstimator {
 
   /// One tick: `previous_angle` (rad) and `estimate` (rad/s) are updated in place.
   void Update(double measured_angle, double* previous_angle, double* estimate) const {
+    Update(Gain(), measured_angle, previous_angle, estimate);
+  }
+  /// The same with the gain a = Gain() computed once (the drive's per-tick path).
+  void Update(double gain, double measured_angle, double* previous_angle, double* estimate) const {
     const double raw = (measured_angle - *previous_angle) / period;
-    *estimate += Gain() * (raw - *estimate);
+    *estimate += gain * (raw - *estimate);
     *previous_angle = measured_angle;
   }
 };

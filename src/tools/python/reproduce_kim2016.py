@@ -24,6 +24,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from mjstepper_plot import column, read_csv  # noqa: E402
+import mjstepper_plot  # noqa: E402
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
 CLI = os.path.join(ROOT, "build", "mjstepper")
@@ -373,9 +374,7 @@ def stability_table(p):
 def save(fig, name):
     path = os.path.join(FIGS, name)
     fig.tight_layout()
-    fig.savefig(path + ".tmp.png", dpi=100)
-    plt.close(fig)
-    os.replace(path + ".tmp.png", path)
+    mjstepper_plot.save(fig, path)  # written to a temporary name, then renamed
     return os.path.relpath(path, os.path.dirname(REPORT))
 
 
