@@ -181,8 +181,10 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
   if (!drive_) return;
   for (size_t slot = 0; slot < actuators_.size(); ++slot) {
     const Actuator& a = actuators_[slot];
-    const DriveState state = CurrentState(m, d, instance, slot);
-    // Torque from the currents at the step's start (as MuJoCo's dcmotor without actearly).
+    // Torque from the currents at the step's start (as MuJoCo's dcmotor without actearly); the
+    // core state suffices once the drive has started.
+    DriveCoreState state = Drive::LoadCore(Slot(m, d, instance, slot));
+    if (!state.started) state = CurrentState(m, d, instance, slot);
     d->actuator_force[a.outadr] = drive_->Torque(state, d->actuator_length[a.outadr]);
   }
 }
@@ -280,7 +282,11 @@ void RegisterStepperPlugin() {
   mjp_defaultPlugin(&plugin);
   plugin.name = kPluginName;
   plugin.capabilityflags = mjPLUGIN_ACTUATOR | mjPLUGIN_SENSOR;
-  plugin.needstage = mjSTAGE_ACC;  // signals include this step's torques
+  // The signals are functions of the drive state at the step's start and of actuator_length, both
+  // known after mj_fwdPosition; the torques among them are recomputed from the currents, not read
+  // from actuator_force. So the position stage suffices, and MuJoCo skips mj_rnePostConstraint,
+  // which it runs before any acceleration-stage plugin sensor.
+  plugin.needstage = mjSTAGE_POS;
   plugin.nattribute = static_cast<int>(attributes.size());
   plugin.attributes = attributes.data();
   plugin.nstate = +[](const mjModel* m, int instance) { return Stepper::StateSize(m, instance); };

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <tuple>
 
@@ -95,6 +96,11 @@ Drive::Drive(DriveConfig config) : config_(std::move(config)) {
   speed_feedback_ = config_.speed_feedback.value_or(DefaultSpeedFeedback(config_.controller));
   velocity_estimator_ = {.period = config_.isr_period, .cutoff = config_.velocity_cutoff};
   velocity_gain_ = velocity_estimator_.Gain();  // S-17, once at load
+  // The interval lengths the clock produces when steps are multiples of T: T, D and T − D.
+  for (double length : {config_.isr_period, config_.compute_delay,
+                        config_.isr_period - config_.compute_delay}) {
+    if (length > 0) decay_kernels_.push_back(DecayKernel(motor, length));
+  }
 }
 
 DriveState Drive::Load(const double* values) const {
@@ -103,6 +109,10 @@ DriveState Drive::Load(const double* values) const {
               sizeof(DriveCoreState));
   std::copy_n(values + layout_.core, layout_.controller + layout_.profile, s.unit.begin());
   return s;
+}
+
+DriveCoreState Drive::LoadCore(const double* values) {
+  return Unpack<DriveCoreState>(values);
 }
 
 void Drive::Store(const DriveState& s, double* values) const {
@@ -139,6 +149,7 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   s.voltage_a = s.pending_a = voltage.real();
   s.voltage_b = s.pending_b = voltage.imag();
   s.next_tick = std::ceil(time / config_.isr_period);
+  s.tick_time = s.next_tick * config_.isr_period;
   return s;
 }
 
@@ -181,25 +192,34 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   } else {
     typename C::State unit = Unpack<typename C::State>(s->unit.data());
     const double period = config_.isr_period;  // T
-    // Tick times k·T and the accumulated simulation time differ by round-off only.
+    // Tick times and step times meant to coincide differ by round-off only (different sums).
     const double eps = 1e-9 * period;
-    if (s->next_tick * period < t0 - eps) {  // time was moved back or jumped: resynchronise
+    if (s->tick_time < t0 - eps || s->tick_time > t0 + period + eps) {
+      // Time jumped forward or was moved back under the drive: resynchronise its clock.
       s->next_tick = std::ceil((t0 - eps) / period);
+      s->tick_time = s->next_tick * period;
       s->pending = 0;
     }
     PhaseVector current = s->current();
     PhaseVector voltage = s->voltage();
     double t = t0;
     // The rotor's electrical phasor e^{jx(t)}, carried from interval to interval by each kernel's
-    // rotation e^{jΩh} (one sincos per step); the last kernel is reused while intervals keep their
-    // length (round-off: lengths from absolute tick times agree to ~1e-9 of a period).
+    // rotation e^{jΩh}; the last kernel is reused while intervals keep their length (to 1e-9).
     PhaseVector phasor = UnitPhasor(constants_.rotor_teeth * theta0);
     WindingKernel kernel;
+    std::optional<SpeedKernel> speed;  // shared by the step's kernels: ω is constant over it
     auto integrate_to = [&](double t_end) {
-      if (t_end <= t) return;
+      // An interval shorter than eps is round-off between tick times and step times: skipped.
+      if (t_end <= t + eps) {
+        t = std::max(t, t_end);
+        return;
+      }
       if (config_.solver == WindingSolver::kExact) {
         const double length = t_end - t;
-        if (std::abs(length - kernel.h) > 1e-9 * length) kernel = WindingKernel(motor, omega, length);
+        if (std::abs(length - kernel.h) > 1e-9 * length) {
+          if (!speed) speed.emplace(motor, omega);
+          kernel = WindingKernel(*speed, DecayFor(length));
+        }
         IntervalEnergy e;
         current = AdvanceInterval(motor, kernel, current, voltage, phasor, &e);
         phasor *= kernel.rotation;
@@ -232,9 +252,8 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
     };
     constexpr double kNever = std::numeric_limits<double>::infinity();
     while (true) {
-      const double t_apply =
-          s->pending ? (s->next_tick - 1) * period + config_.compute_delay : kNever;
-      const double t_tick = s->next_tick * period;
+      const double t_apply = s->pending ? s->apply_time : kNever;
+      const double t_tick = s->tick_time;
       const double t_event = std::min(t_apply, t_tick);
       // Events in [t0, t1 − eps] belong to this step; one within eps of t1 is the next step's, so
       // that a tick at a step boundary samples the command set for the step that starts there.
@@ -248,7 +267,9 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
         s->pending = 0;
       } else {  // interrupt k: sample, compute v[k]
         tick(std::lround(s->next_tick));
+        s->apply_time = t_tick + config_.compute_delay;
         s->next_tick += 1;
+        s->tick_time = t_tick + period;
       }
     }
     s->current_a = current.real();
@@ -262,6 +283,13 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   s->theta_cmd = end.theta;
   s->omega_cmd = profiled ? end.omega : omega_cmd;
   if (profiled) Pack(plan, s->unit.data() + layout_.controller);
+}
+
+DecayKernel Drive::DecayFor(double length) const {
+  for (const DecayKernel& k : decay_kernels_) {
+    if (std::abs(length - k.h) <= 1e-9 * length) return k;
+  }
+  return DecayKernel(config_.motor, length);
 }
 
 std::pair<double, double> Drive::Torques(const DriveCoreState& s, double theta) const {
@@ -279,7 +307,7 @@ std::pair<double, double> Drive::Torques(const DriveCoreState& s, double theta) 
   return {torque_em, torque_detent};
 }
 
-double Drive::Torque(const DriveState& s, double theta) const {
+double Drive::Torque(const DriveCoreState& s, double theta) const {
   const auto [torque_em, torque_detent] = Torques(s, theta);
   return torque_em + torque_detent;
 }

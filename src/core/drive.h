@@ -3,11 +3,15 @@
 // profile, and the windings integrated exactly in between. It holds one controller unit from the
 // registry (controllers/registry.h) and hands it, at each tick, the input that controller reads.
 //
-// Time line of interrupt k (t_k = k·T, T = isr_period, absolute, independent of any simulation
-// step; D = compute_delay, 0 <= D < T):
+// Time line of interrupt k (T = isr_period, D = compute_delay, 0 <= D < T; the clock is its own,
+// independent of any simulation step):
 //   t_k       sample i_ab(t_k), θ(t_k), θcmd(t_k); the controller computes v[k]
 //   t_k + D   v[k] reaches the phases and is held until t_{k+1} + D               S-15
 // With Tsui's timing (T = 50 µs, D = 25 µs) this is the paper's 37.5-82.5 µs delay window.
+// The clock starts at t_k0 = k0·T, the first multiple of T at or after the start, and then
+// advances t_{k+1} = t_k + T in floating point, the way a simulator advances its time. When T
+// equals the step, ticks and steps thus stay on the same instants bit for bit however long the
+// run; k·T would drift from MuJoCo's accumulated time by 5 µs over an hour at 20 kHz.
 //
 // A caller moves the drive from t0 to t1 (one simulation step, any length: several ticks per step
 // or several steps per tick) with the rotor angle moving linearly from its value at t0 to θ1 and
@@ -28,6 +32,7 @@
 #include "core/motor_params.h"
 #include "core/power_stage.h"
 #include "core/sensors/velocity_estimator.h"
+#include "core/winding.h"
 
 namespace mjstepper {
 
@@ -72,7 +77,9 @@ struct DriveCoreState {
   double pending_a = 0;          ///< V, computed at the last tick, applied at that tick + D
   double pending_b = 0;          ///< V
   double pending = 0;            ///< 1 while pending_a/b wait for their apply time
-  double next_tick = 0;          ///< k of the next interrupt, at k·T
+  double apply_time = 0;         ///< s, when pending_a/b reach the phases: t_k + D (S-15)
+  double next_tick = 0;          ///< k of the next interrupt
+  double tick_time = 0;          ///< s, its time t_k
   double theta_meas = 0;         ///< rad, encoder angle at the last tick (S-16)
   double omega_est = 0;          ///< rad/s, velocity estimate at the last tick (S-17)
   double current_ref_a = 0;      ///< A, the controller's current reference at the last tick
@@ -142,12 +149,14 @@ class Drive {
   void Advance(DriveState* state, double t0, double t1, double theta1, double command) const;
 
   /// τm + τdet at rotor angle θ with the state's currents (N·m).
-  double Torque(const DriveState& state, double theta) const;
+  double Torque(const DriveCoreState& state, double theta) const;
 
   DriveSignals Signals(const DriveState& state, double theta) const;
 
   /// The state from / to layout().total() doubles (a simulator's state array).
   DriveState Load(const double* values) const;
+  /// The core alone (what Torque reads), without the controller's and profile's state.
+  static DriveCoreState LoadCore(const double* values);
   void Store(const DriveState& state, double* values) const;
 
   /// Magnitude of the current vector the drive holds at rest, A: I_hold, Vmax/R in voltage mode,
@@ -171,6 +180,10 @@ class Drive {
   };
   std::pair<double, double> Torques(const DriveCoreState& s, double theta) const;
 
+  // The decay part of an interval's kernel (winding.h): from decay_kernels_ for the clock's own
+  // lengths, else computed.
+  DecayKernel DecayFor(double length) const;
+
   DriveConfig config_;
   std::vector<DetentTerm> detent_;
   DriveConstants constants_;
@@ -179,6 +192,7 @@ class Drive {
   SpeedFeedback speed_feedback_ = SpeedFeedback::kEstimate;
   VelocityEstimator velocity_estimator_;  // S-17
   double velocity_gain_ = 0;              // its a = 1 − exp(−2π·fc·T), computed once
+  std::vector<DecayKernel> decay_kernels_;  // for T, D and T − D, computed once
 };
 
 }  // namespace mjstepper

@@ -7,12 +7,14 @@ namespace mjstepper {
 
 namespace {
 
-// ∫0^h e^{s·t} dt = (e^{s·h} − 1)/s given exp_sh = e^{s·h}, by its series where s·h is small (no
-// cancellation at s → 0; the series' error there is (s·h)⁴/120 < 1e-14 relative).
-PhaseVector IntegralOfExp(PhaseVector s, double h, PhaseVector exp_sh) {
+// ∫0^h e^{s·t} dt = (e^{s·h} − 1)·(1/s) given exp_sh = e^{s·h} and inv_s = 1/s (called only where
+// s·h is not small), by its series where s·h is small (no cancellation at s → 0; the series' error
+// there is (s·h)⁴/120 < 1e-14 relative).
+template <class InverseOfS>
+PhaseVector IntegralOfExp(PhaseVector s, double h, PhaseVector exp_sh, InverseOfS inv_s) {
   const PhaseVector z = s * h;
   if (std::norm(z) < 1e-6) return h * (1.0 + z / 2.0 + z * z / 6.0 + z * z * z / 24.0);
-  return (exp_sh - 1.0) / s;
+  return (exp_sh - 1.0) * inv_s();
 }
 
 }  // namespace
@@ -46,20 +48,38 @@ PhaseVector WindingInterval::EndOfInterval(double h, IntervalEnergy* energy) con
                          UnitPhasor(ElectricalAngle(p_, theta0_)), energy);
 }
 
-WindingKernel::WindingKernel(const MotorParams& p, double omega_, double h_) : h(h_), omega(omega_) {
-  const double R = p.resistance, L = p.inductance, Km = p.torque_constant;
-  const double a = R / L;                                   // 1/s
-  const double w = p.rotor_teeth * omega;                   // Ω, rad/s
-  rotation = UnitPhasor(w * h);
+DecayKernel::DecayKernel(const MotorParams& p, double h_) : h(h_) {
+  const double a = p.resistance / p.inductance;  // 1/s
   decay = std::exp(-a * h);
-  emf_gain = PhaseVector(0, -Km * omega) / PhaseVector(R, w * L);
-  const PhaseVector jw(0, w);
-  int_jw = IntegralOfExp(jw, h, rotation);
-  int_a = IntegralOfExp(-a, h, decay).real();
-  int_2a = IntegralOfExp(-2 * a, h, decay * decay).real();
-  int_jw_a = IntegralOfExp(jw - a, h, rotation * decay);
-  int_mjw_a = IntegralOfExp(-jw - a, h, std::conj(rotation) * decay);
+  int_a = IntegralOfExp(-a, h, decay, [a] { return PhaseVector(-1 / a); }).real();
+  int_2a = IntegralOfExp(-2 * a, h, decay * decay, [a] { return PhaseVector(-0.5 / a); }).real();
 }
+
+SpeedKernel::SpeedKernel(const MotorParams& p, double omega_) : omega(omega_) {
+  electrical = p.rotor_teeth * omega;
+  decay_rate = p.resistance / p.inductance;
+  // 1/(jΩ − a) = (−jΩ − a)/(Ω² + a²); P = −j·Km·ω/(L·(a + jΩ)) = j·Km·ω/L · conj(1/(jΩ − a)).
+  inv_jw_a = PhaseVector(-decay_rate, -electrical) /
+             (electrical * electrical + decay_rate * decay_rate);
+  emf_gain = PhaseVector(0, p.torque_constant * omega / p.inductance) * std::conj(inv_jw_a);
+}
+
+WindingKernel::WindingKernel(const SpeedKernel& speed, const DecayKernel& decay_kernel)
+    : h(decay_kernel.h),
+      omega(speed.omega),
+      rotation(UnitPhasor(speed.electrical * decay_kernel.h)),
+      decay(decay_kernel.decay),
+      emf_gain(speed.emf_gain),
+      int_a(decay_kernel.int_a),
+      int_2a(decay_kernel.int_2a) {
+  const PhaseVector jw(0, speed.electrical);
+  int_jw = IntegralOfExp(jw, h, rotation, [&] { return PhaseVector(0, -1 / speed.electrical); });
+  int_jw_a = IntegralOfExp(jw - speed.decay_rate, h, rotation * decay,
+                           [&] { return speed.inv_jw_a; });
+}
+
+WindingKernel::WindingKernel(const MotorParams& p, double omega_, double h_)
+    : WindingKernel(SpeedKernel(p, omega_), DecayKernel(p, h_)) {}
 
 PhaseVector AdvanceInterval(const MotorParams& p, const WindingKernel& k, PhaseVector current0,
                             PhaseVector voltage, PhaseVector phasor0, IntervalEnergy* energy) {
@@ -76,7 +96,7 @@ PhaseVector AdvanceInterval(const MotorParams& p, const WindingKernel& k, PhaseV
   energy->copper = p.resistance * norm_integral;
   // ∫τm·ω = Km·ω·∫Im(e^{−jx(t)}·i(t)), e^{−jx(t)} = e^{−jx0}·e^{−jΩt}   (S-4)
   energy->mechanical = p.torque_constant * k.omega *
-                       (std::conj(phasor0) * (A * std::conj(k.int_jw) + B * h + C * k.int_mjw_a))
+                       (std::conj(phasor0) * (A * std::conj(k.int_jw) + B * h + C * std::conj(k.int_jw_a)))
                            .imag();
   return current;
 }

@@ -19,13 +19,40 @@ struct IntervalEnergy {
   double mechanical = 0;
 };
 
-/// What an interval's exact solution needs that depends only on its length h and the rotor speed
-/// ω (not on i0, v or the angle): e^{jΩh}, e^{−ah}, P and the integrals ∫0^h e^{s·t} dt of the
-/// energies. Every interval of one length within one simulation step shares them (the drive
-/// keeps the last one: at 1 MHz, 50 intervals per step, one kernel).
+/// What an interval's exact solution needs that depends only on its length h: e^{−ah} and the
+/// integrals ∫0^h e^{−at} dt and ∫0^h e^{−2at} dt (a = R/L). A drive computes these once at load
+/// for the interval lengths its clock produces (T, D, T − D).
+struct DecayKernel {
+  DecayKernel() = default;
+  DecayKernel(const MotorParams& p, double h);
+
+  double h = -1;      // s; -1: none
+  double decay = 0;   // e^{−ah}
+  double int_a = 0;   // ∫e^{−at}, s
+  double int_2a = 0;  // ∫e^{−2at}, s
+};
+
+/// What every interval of one simulation step shares, the rotor turning at ω throughout: P and
+/// 1/(jΩ − a), from which all the step's divisions follow (1/(−jΩ − a) is its conjugate).
+struct SpeedKernel {
+  SpeedKernel() = default;
+  SpeedKernel(const MotorParams& p, double omega);
+
+  double omega = 0;           // rad/s
+  double electrical = 0;      // Ω = Nr·ω, rad/s
+  double decay_rate = 0;      // a = R/L, 1/s
+  PhaseVector emf_gain;       // P = −j·Km·ω / (R + j·Ω·L), A
+  PhaseVector inv_jw_a;       // 1/(jΩ − a), s
+};
+
+/// An interval's whole kernel: e^{jΩh}, e^{−ah}, P and the integrals ∫0^h e^{s·t} dt of the
+/// energies. Every interval of one length within one simulation step shares it (the drive keeps
+/// the last one: at 1 MHz, 50 intervals per step, one kernel).
 struct WindingKernel {
   WindingKernel() = default;
   WindingKernel(const MotorParams& p, double omega, double h);
+  /// From its two parts: one sincos and a few products, no division.
+  WindingKernel(const SpeedKernel& speed, const DecayKernel& decay);
 
   double h = -1;               // s; -1: none yet
   double omega = 0;            // rad/s
@@ -35,8 +62,7 @@ struct WindingKernel {
   PhaseVector int_jw;          // ∫e^{jΩt}
   double int_a = 0;            // ∫e^{−at}
   double int_2a = 0;           // ∫e^{−2at}
-  PhaseVector int_jw_a;        // ∫e^{(jΩ−a)t}
-  PhaseVector int_mjw_a;       // ∫e^{(−jΩ−a)t}
+  PhaseVector int_jw_a;        // ∫e^{(jΩ−a)t}; ∫e^{(−jΩ−a)t} is its conjugate
 };
 
 /// One interval of S-3 with v held from current i0, the rotor at electrical phasor e^{jx0} and

@@ -159,6 +159,37 @@ TEST(Drive, TicksAreIndependentOfTheSimulationStep) {
   }
 }
 
+// The interrupt clock advances by T the way MuJoCo advances d->time by its timestep, so with T
+// equal to the step the next tick falls exactly on the next step's start however long the run;
+// k·T itself drifts away from the accumulated time (by 1e-11 s after 10 s here).
+TEST(Drive, ClockStaysOnAccumulatedStepTimes) {
+  const Drive drive(TsuiConfig(kCurrent, InputMode::kVelocity));
+  const double h = drive.config().isr_period, omega = RpmToRadPerSec(60);
+  DriveState s = drive.Rest(0.0, 0.0, omega);
+  double t = 0;
+  for (long k = 0; k < 200000; ++k) {
+    const double t1 = t + h;  // as mj_step: time += timestep
+    drive.Advance(&s, t, t1, omega * t1, omega);
+    t = t1;
+  }
+  EXPECT_EQ(s.tick_time, t);
+  EXPECT_EQ(s.next_tick, 200000);
+  EXPECT_NE(s.next_tick * h, t);  // the absolute grid would no longer match the steps
+}
+
+// Time set back under a running drive (a user rewinding d->time without a reset): the clock
+// restarts at the new time instead of waiting for its old tick.
+TEST(Drive, ClockResynchronisesWhenTimeMovesBack) {
+  const Drive drive(TsuiConfig(kCurrent, InputMode::kVelocity));
+  const double h = drive.config().isr_period;
+  DriveState s = drive.Rest(0.0, 0.0, 0.0);
+  for (int k = 0; k < 200; ++k) drive.Advance(&s, k * h, (k + 1) * h, 0.0, 0.0);
+  ASSERT_EQ(s.next_tick, 200);
+  drive.Advance(&s, 0.0, h, 0.0, 0.0);
+  EXPECT_EQ(s.next_tick, 1);  // the tick at t = 0 ran; the next is at h
+  EXPECT_EQ(s.tick_time, h);
+}
+
 // S-13: each phase is clamped to ±Vbus, and the PI integrator holds while the bridges saturate
 // (conditional integration), so it cannot wind up during a long saturation.
 TEST(Drive, BridgesClampAndIntegratorDoesNotWindUp) {
@@ -276,7 +307,7 @@ TEST(Drive, ValidateNamesFieldAndValue) {
 TEST(Drive, StateRoundTripsThroughDoubles) {
   const Drive drive(TsuiConfig(kCurrent, InputMode::kPosition));
   DriveState s = drive.Rest(0.1, 0.2, 0.3);
-  EXPECT_EQ(drive.layout().total(), 19 + 2);  // core + the PI integrators; no profile
+  EXPECT_EQ(drive.layout().total(), 21 + 2);  // core + the PI integrators; no profile
   std::vector<double> buffer(drive.layout().total());
   drive.Store(s, buffer.data());
   const DriveState back = drive.Load(buffer.data());
