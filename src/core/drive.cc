@@ -91,7 +91,8 @@ Drive::Drive(DriveConfig config) : config_(std::move(config)) {
   }
   stage_ = {.kind = config_.power_stage, .bus_voltage = config_.bus_voltage};
   for (const DetentHarmonic& h : motor.detent) {
-    detent_.push_back({.order = h.order, .weight = h.amplitude * UnitPhasor(h.phase)});
+    if (static_cast<int>(detent_weights_.size()) < h.order) detent_weights_.resize(h.order);
+    detent_weights_[h.order - 1] += h.amplitude * UnitPhasor(h.phase);
   }
   speed_feedback_ = config_.speed_feedback.value_or(DefaultSpeedFeedback(config_.controller));
   velocity_estimator_ = {.period = config_.isr_period, .cutoff = config_.velocity_cutoff};
@@ -122,9 +123,10 @@ void Drive::Store(const DriveState& s, double* values) const {
 }
 
 DriveState Drive::Rest(double time, double theta, double command) const {
-  DriveState s;
+  DriveState s{};
   s.started = 1;
   s.theta = theta;
+  s.set_rotor_phasor(UnitPhasor(constants_.rotor_teeth * theta));
   const bool holds_command =
       config_.input == InputMode::kPosition && config_.profile.kind == ProfileKind::kNone;
   s.theta_cmd = holds_command ? command : theta;
@@ -205,7 +207,7 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
     double t = t0;
     // The rotor's electrical phasor e^{jx(t)}, carried from interval to interval by each kernel's
     // rotation e^{jΩh}; the last kernel is reused while intervals keep their length (to 1e-9).
-    PhaseVector phasor = UnitPhasor(constants_.rotor_teeth * theta0);
+    PhaseVector phasor = s->rotor_phasor();  // at θ0
     WindingKernel kernel;
     std::optional<SpeedKernel> speed;  // shared by the step's kernels: ω is constant over it
     auto integrate_to = [&](double t_end) {
@@ -266,7 +268,7 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
         voltage = {s->pending_a, s->pending_b};
         s->pending = 0;
       } else {  // interrupt k: sample, compute v[k]
-        tick(std::lround(s->next_tick));
+        tick(static_cast<long>(s->next_tick));  // an integer held in a double
         s->apply_time = t_tick + config_.compute_delay;
         s->next_tick += 1;
         s->tick_time = t_tick + period;
@@ -280,6 +282,7 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   }
   const CommandSample end = command_at(t1);
   s->theta = theta1;
+  s->set_rotor_phasor(UnitPhasor(constants_.rotor_teeth * theta1));
   s->theta_cmd = end.theta;
   s->omega_cmd = profiled ? end.omega : omega_cmd;
   if (profiled) Pack(plan, s->unit.data() + layout_.controller);
@@ -293,18 +296,15 @@ DecayKernel Drive::DecayFor(double length) const {
 }
 
 std::pair<double, double> Drive::Torques(const DriveCoreState& s, double theta) const {
-  const PhaseVector z = UnitPhasor(constants_.rotor_teeth * theta);  // e^{jx}, S-1
+  // e^{jx}, S-1: the one kept with the state's θ (Advance, Rest) when it is that angle.
+  const PhaseVector z = s.started && theta == s.theta
+                            ? s.rotor_phasor()
+                            : UnitPhasor(constants_.rotor_teeth * theta);
   const double torque_em = constants_.torque_constant * (std::conj(z) * s.current()).imag();  // S-4
-  double torque_detent = 0;  // S-5: −Σh Kdh·sin(h·x + φh) = −Σh Im(Kdh·e^{jφh}·(e^{jx})^h)
-  for (const DetentTerm& term : detent_) {
-    PhaseVector power(1, 0), base = z;
-    for (int h = term.order; h > 0; h >>= 1) {  // (e^{jx})^h by squaring
-      if (h & 1) power *= base;
-      base *= base;
-    }
-    torque_detent -= (term.weight * power).imag();
-  }
-  return {torque_em, torque_detent};
+  // S-5: −Σh Kdh·sin(h·x + φh) = −Im(Σh wh·z^h) = −Im(z·(w1 + z·(w2 + z·(...))))
+  PhaseVector sum(0, 0);
+  for (auto w = detent_weights_.rbegin(); w != detent_weights_.rend(); ++w) sum = z * (*w + sum);
+  return {torque_em, -sum.imag()};
 }
 
 double Drive::Torque(const DriveCoreState& s, double theta) const {

@@ -87,8 +87,15 @@ struct DriveCoreState {
   double energy_input = 0;       ///< J, ∫(va·ia + vb·ib) dt since the start
   double energy_copper = 0;      ///< J, ∫R·(ia² + ib²) dt
   double energy_mechanical = 0;  ///< J, ∫τm·ω dt
+  double rotor_cos = 0;          ///< cos(Nr·θ): e^{jx} at `theta`, kept with it so that a step and
+  double rotor_sin = 0;          ///< sin(Nr·θ)  the torque after it share one sincos (S-1)
 
   PhaseVector current() const { return {current_a, current_b}; }
+  PhaseVector rotor_phasor() const { return {rotor_cos, rotor_sin}; }
+  void set_rotor_phasor(PhaseVector z) {
+    rotor_cos = z.real();
+    rotor_sin = z.imag();
+  }
   PhaseVector voltage() const { return {voltage_a, voltage_b}; }
 };
 static_assert(std::is_trivially_copyable_v<DriveCoreState> &&
@@ -100,7 +107,7 @@ inline constexpr int kMaxUnitState = 40;
 /// The whole state of one drive: the core, then the controller's own state, then the profile's.
 /// Only StateLayout::total doubles of it are stored by a simulator (MuJoCo: plugin_state).
 struct DriveState : DriveCoreState {
-  std::array<double, kMaxUnitState> unit{};
+  std::array<double, kMaxUnitState> unit;  // only StateLayout's part is ever read
 };
 
 /// Where each part lives in a simulator's state array, decided once from the config.
@@ -173,11 +180,7 @@ class Drive {
   void AdvanceWith(const C& controller, DriveState* s, double t0, double t1, double theta1,
                    double command) const;
 
-  // τm + τdet from one sincos: the detent harmonics as (h, Kdh·e^{jφh}), e^{jhx} = (e^{jx})^h.
-  struct DetentTerm {
-    int order = 1;
-    PhaseVector weight;  // Kdh·e^{jφh}, N·m
-  };
+  // τm + τdet from e^{jx} alone: τdet = −Im(Σh wh·(e^{jx})^h), wh = Kdh·e^{jφh}, by Horner's rule.
   std::pair<double, double> Torques(const DriveCoreState& s, double theta) const;
 
   // The decay part of an interval's kernel (winding.h): from decay_kernels_ for the clock's own
@@ -185,7 +188,7 @@ class Drive {
   DecayKernel DecayFor(double length) const;
 
   DriveConfig config_;
-  std::vector<DetentTerm> detent_;
+  std::vector<PhaseVector> detent_weights_;  // wh = Σ Kdh·e^{jφh} at index h − 1, N·m (S-5)
   DriveConstants constants_;
   StateLayout layout_;
   PowerStage stage_;

@@ -307,11 +307,12 @@ TEST(Drive, ValidateNamesFieldAndValue) {
 TEST(Drive, StateRoundTripsThroughDoubles) {
   const Drive drive(TsuiConfig(kCurrent, InputMode::kPosition));
   DriveState s = drive.Rest(0.1, 0.2, 0.3);
-  EXPECT_EQ(drive.layout().total(), 21 + 2);  // core + the PI integrators; no profile
+  EXPECT_EQ(drive.layout().total(), 23 + 2);  // core + the PI integrators; no profile
   std::vector<double> buffer(drive.layout().total());
   drive.Store(s, buffer.data());
   const DriveState back = drive.Load(buffer.data());
-  EXPECT_EQ(std::memcmp(&back, &s, sizeof(s)), 0);
+  EXPECT_EQ(std::memcmp(&back, &s, sizeof(DriveCoreState)), 0);
+  EXPECT_EQ(std::memcmp(back.unit.data(), s.unit.data(), 2 * sizeof(double)), 0);
   EXPECT_EQ(SignalTable().size(), static_cast<size_t>(kNumSignals));
 }
 
