@@ -168,6 +168,7 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   const double theta0 = s->theta;                            // rad
   const double omega = h > 0 ? (theta1 - theta0) / h : 0.0;  // rad/s, constant over the step
   auto theta_at = [&](double t) { return theta0 + omega * (t - t0); };
+  const PhaseVector phasor1 = UnitPhasor(constants_.rotor_teeth * theta1);  // e^{jx} at t1
 
   // The command over the step: the profile's plan, or ctrl itself.
   MotionProfile::State plan;
@@ -219,7 +220,7 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
       if (config_.solver == WindingSolver::kExact) {
         const double length = t_end - t;
         if (std::abs(length - kernel.h) > 1e-9 * length) {
-          if (!speed) speed.emplace(motor, omega);
+          if (!speed) speed.emplace(motor, omega, h, s->rotor_phasor(), phasor1);
           kernel = WindingKernel(*speed, DecayFor(length));
         }
         IntervalEnergy e;
@@ -282,7 +283,7 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   }
   const CommandSample end = command_at(t1);
   s->theta = theta1;
-  s->set_rotor_phasor(UnitPhasor(constants_.rotor_teeth * theta1));
+  s->set_rotor_phasor(phasor1);
   s->theta_cmd = end.theta;
   s->omega_cmd = profiled ? end.omega : omega_cmd;
   if (profiled) Pack(plan, s->unit.data() + layout_.controller);

@@ -64,10 +64,27 @@ SpeedKernel::SpeedKernel(const MotorParams& p, double omega_) : omega(omega_) {
   emf_gain = PhaseVector(0, p.torque_constant * omega / p.inductance) * std::conj(inv_jw_a);
 }
 
+SpeedKernel::SpeedKernel(const MotorParams& p, double omega_, double h, PhaseVector z0,
+                         PhaseVector z1)
+    : SpeedKernel(p, omega_) {
+  // The half-angle identity needs 1 + e^{jΩh} away from 0: |Ω·h| <= 3 rad (of π) is kept.
+  if (!(h > 0 && std::abs(electrical * h) <= 3.0)) return;
+  step = h;
+  step_rotation = z1 * std::conj(z0);
+  const PhaseVector sum = 1.0 + step_rotation;
+  half_rotation = sum / std::sqrt(std::norm(sum));
+}
+
+PhaseVector SpeedKernel::Rotation(double t) const {
+  if (std::abs(t - step) <= 1e-9 * t) return step_rotation;
+  if (std::abs(2 * t - step) <= 2e-9 * t) return half_rotation;
+  return UnitPhasor(electrical * t);
+}
+
 WindingKernel::WindingKernel(const SpeedKernel& speed, const DecayKernel& decay_kernel)
     : h(decay_kernel.h),
       omega(speed.omega),
-      rotation(UnitPhasor(speed.electrical * decay_kernel.h)),
+      rotation(speed.Rotation(decay_kernel.h)),
       decay(decay_kernel.decay),
       emf_gain(speed.emf_gain),
       int_a(decay_kernel.int_a),

@@ -37,12 +37,21 @@ struct DecayKernel {
 struct SpeedKernel {
   SpeedKernel() = default;
   SpeedKernel(const MotorParams& p, double omega);
+  /// Also given the step [0, h] over which the rotor turns from electrical phasor z0 to z1
+  /// (Ω·h = Nr·(θ1 − θ0)), so that the rotations over h and h/2 need no sincos.
+  SpeedKernel(const MotorParams& p, double omega, double h, PhaseVector z0, PhaseVector z1);
+
+  /// e^{jΩt}: from the step's phasors when t is h or h/2 (to 1e-9 of t), else by sincos.
+  PhaseVector Rotation(double t) const;
 
   double omega = 0;           // rad/s
   double electrical = 0;      // Ω = Nr·ω, rad/s
   double decay_rate = 0;      // a = R/L, 1/s
   PhaseVector emf_gain;       // P = −j·Km·ω / (R + j·Ω·L), A
   PhaseVector inv_jw_a;       // 1/(jΩ − a), s
+  double step = -1;           // h, s; -1: no step given
+  PhaseVector step_rotation;  // e^{jΩh} = z1·conj(z0)
+  PhaseVector half_rotation;  // e^{jΩh/2} = (1 + e^{jΩh})/|1 + e^{jΩh}|, valid for |Ω·h| < π
 };
 
 /// An interval's whole kernel: e^{jΩh}, e^{−ah}, P and the integrals ∫0^h e^{s·t} dt of the
