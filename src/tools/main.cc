@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "config.h"
+#include "core/attributes.h"
 #include "core/signals.h"
 #include "core/units.h"
 #include "identify.h"
@@ -155,6 +156,11 @@ int main(int argc, char** argv) {
       "ACTUATOR.KEY=VALUE: change a stepper's <config> for this run, e.g. "
       "shaft.damping=all or shaft.drive=servo (repeatable)";
   run_cmd->add_option("--set", sets, set_help);
+  std::vector<std::string> loads;
+  run_cmd->add_option("--load", loads,
+                      "ACTUATOR=TORQUE: the constant load torque τl (N·m, against positive "
+                      "motion) of a load actuator, <general gainprm=\"0\" biastype=\"affine\">, "
+                      "e.g. load=0.1 in models/kim_*.xml (repeatable)");
 
   SweepOptions sweep;
   std::string speeds, sweep_out;
@@ -225,6 +231,16 @@ int main(int argc, char** argv) {
           throw std::invalid_argument(fmt::format("--ctrl {}: expected ACTUATOR=PROFILE", c));
         }
         run.ctrl[c.substr(0, eq)] = c.substr(eq + 1);
+      }
+      for (const std::string& l : loads) {
+        const size_t eq = l.find('=');
+        double torque = 0;
+        if (eq == std::string::npos || eq == 0 ||
+            !mjstepper::ParseFiniteDouble(l.substr(eq + 1), &torque)) {
+          throw std::invalid_argument(
+              fmt::format("--load {}: expected ACTUATOR=TORQUE, TORQUE a finite number in N·m", l));
+        }
+        run.loads[l.substr(0, eq)] = torque;
       }
       run.progress = !quiet;
       for (const std::string& s : sets) run.overrides.push_back(ParseOverride(s));

@@ -25,6 +25,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     throw std::invalid_argument(fmt::format("--log-every = {}: must be >= 1", options.log_every));
   }
   StepperModel sm = LoadStepperModel(options.model, options.overrides);
+  for (const auto& [name, torque] : options.loads) SetLoadTorque(sm.model.get(), name, torque);
   const mjModel* m = sm.model.get();
   DataPtr data(mj_makeData(m));
   mjData* d = data.get();

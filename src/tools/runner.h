@@ -20,6 +20,7 @@ struct RunOptions {
   int log_every = 1;                        ///< log one row every N steps
   bool progress = true;                     ///< progress line on stderr for runs over ~2 s
   std::vector<ConfigOverride> overrides;    ///< e.g. shaft.damping=all
+  std::map<std::string, double> loads;      ///< load actuator name → τl, N·m (SetLoadTorque)
   bool keep_traces = false;                 ///< fill RunResult::traces (for studies and tests)
   RenderOptions render;                     ///< video and frames; off unless a path is given
 };

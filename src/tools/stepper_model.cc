@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include <cstdlib>
 #include <stdexcept>
 #include <variant>
@@ -125,6 +127,25 @@ StepperModel LoadStepperModel(const std::string& path,
   }
   out.model = std::move(model);
   return out;
+}
+
+void SetLoadTorque(mjModel* m, const std::string& name, double torque) {
+  const std::string what = fmt::format("--load {}={}", name, torque);
+  const int id = mj_name2id(m, mjOBJ_ACTUATOR, name.c_str());
+  if (id < 0) throw std::invalid_argument(fmt::format("{}: no actuator named '{}'", what, name));
+  if (!std::isfinite(torque)) {
+    throw std::invalid_argument(fmt::format("{}: the torque must be finite (N·m)", what));
+  }
+  const mjtNum* gain = m->actuator_gainprm + id * mjNGAIN;
+  mjtNum* bias = m->actuator_biasprm + id * mjNBIAS;
+  if (m->actuator_plugin[id] >= 0 || m->actuator_gaintype[id] != mjGAIN_FIXED || gain[0] != 0 ||
+      m->actuator_biastype[id] != mjBIAS_AFFINE || bias[1] != 0 || bias[2] != 0) {
+    throw std::invalid_argument(fmt::format(
+        "{}: actuator '{}' is not a constant load; write it as <general gainprm=\"0\" "
+        "biastype=\"affine\" biasprm=\"-TORQUE 0 0\"/> on the joint (plugin/README.md)",
+        what, name));
+  }
+  bias[0] = -torque;
 }
 
 double ReflectedInertia(const mjModel* m, int actuator) {

@@ -47,6 +47,13 @@ void LoadPluginLibrary();
 StepperModel LoadStepperModel(const std::string& path,
                               const std::vector<ConfigOverride>& overrides = {});
 
+/// Sets the constant load torque τl (N·m) of the load actuator `name`: a non-plugin actuator with
+/// a fixed zero gain and an affine bias (plugin/README.md, "Load torque"), whose force is then
+/// biasprm[0] = −τl, against positive motion whatever the speed (Kim's τl, S-7). Throws
+/// std::invalid_argument naming the actuator and value when it is not such an actuator or τl is
+/// not finite.
+void SetLoadTorque(mjModel* m, const std::string& name, double torque);
+
 /// Rotor-side inertia seen by the actuator at qpos0, kg·m²: M[dof, dof] / gear² (armature
 /// included).
 double ReflectedInertia(const mjModel* m, int actuator);
