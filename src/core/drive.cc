@@ -345,22 +345,9 @@ double Drive::RestCurrentMagnitude() const {
 }
 
 double Drive::HoldingStiffness() const {
-  const MotorParams& m = config_.motor;
-  return std::visit(
-      [&](const auto& unit) -> double {
-        using C = std::decay_t<decltype(unit)>;
-        if constexpr (std::is_same_v<C, Servo>) {
-          return unit.kp;  // the position loop's spring
-        } else if constexpr (std::is_same_v<C, Identification>) {
-          return 0.0;
-        } else if constexpr (std::is_same_v<C, Stmms> || std::is_same_v<C, HighGainFoc>) {
-          const KimMechanical& k = unit.mechanical;
-          return k.inertia * (k.k1 + k.k1p * k.k2);  // K(26): the e1 spring J·(k1 + k1p·k2)
-        } else {
-          return m.rotor_teeth * m.torque_constant * RestCurrentMagnitude();
-        }
-      },
-      config_.controller);
+  const PhaseVector rest_current = Rest(0.0, 0.0, 0.0).current();
+  return std::visit([&](const auto& unit) { return unit.HoldingStiffness(constants_, rest_current); },
+                    config_.controller);
 }
 
 }  // namespace mjstepper

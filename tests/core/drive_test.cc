@@ -304,6 +304,28 @@ TEST(Drive, ValidateNamesFieldAndValue) {
   }
 }
 
+// Each controller states its own holding stiffness: T' = Nr·Km·I for the open-loop drives (T(1)),
+// Kp for the servo, J·(k1 + k1p·k2) for Kim's (K(26)), none in identification.
+TEST(Drive, HoldingStiffnessIsEachControllersOwn) {
+  const double nr_km = 50 * 0.3;  // Tsui: Nr·Km, N·m/A
+  EXPECT_DOUBLE_EQ(Drive(TsuiConfig(kCurrent, InputMode::kPosition)).HoldingStiffness(),
+                   nr_km * 1.9);
+  EXPECT_DOUBLE_EQ(Drive(TsuiConfig(kIdeal, InputMode::kPosition)).HoldingStiffness(), nr_km * 1.9);
+  EXPECT_DOUBLE_EQ(Drive(TsuiConfig(kVoltage, InputMode::kPosition)).HoldingStiffness(),
+                   nr_km * 24.0 / 0.9);
+  Servo servo;
+  servo.kp = 2.5;
+  EXPECT_DOUBLE_EQ(Drive(TsuiConfig(servo, InputMode::kPosition)).HoldingStiffness(), 2.5);
+  EXPECT_EQ(Drive(TsuiConfig(Identification{}, InputMode::kVelocity)).HoldingStiffness(), 0.0);
+  Stmms stmms;
+  stmms.mechanical.k1p = 400;
+  stmms.mechanical.k1 = 20;
+  stmms.mechanical.k2 = 100;
+  stmms.mechanical.inertia = 4.8e-5;
+  EXPECT_DOUBLE_EQ(Drive(TsuiConfig(stmms, InputMode::kPosition)).HoldingStiffness(),
+                   4.8e-5 * (20 + 400 * 100));
+}
+
 TEST(Drive, StateRoundTripsThroughDoubles) {
   const Drive drive(TsuiConfig(kCurrent, InputMode::kPosition));
   DriveState s = drive.Rest(0.1, 0.2, 0.3);

@@ -30,6 +30,12 @@ struct DriveConstants {
   double isr_period = 50e-6;     ///< T, s: control tick period
 };
 
+/// T' = Nr·Km·|i| (SPEC §1, T(1)): the holding stiffness, N·m/rad, of a rotor held by a current
+/// vector i aligned with it: the open-loop drives' stiffness at rest.
+inline double OpenLoopStiffness(const DriveConstants& k, PhaseVector rest_current) {
+  return k.rotor_teeth * k.torque_constant * std::abs(rest_current);
+}
+
 /// The command at tick t_k: θd and its derivatives (from the drive's motion profile, exact).
 struct CommandSample {
   double theta = 0;  ///< θd, rad (rotor side)
@@ -101,6 +107,7 @@ concept ControllerUnit =
       { C::Input::From(sample) } -> std::same_as<typename C::Input>;
       { c.Tick(k, in, stage, state) } -> std::same_as<TickOutput>;
       { c.Rest(k, rest, state) } -> std::same_as<PhaseVector>;
+      { c.HoldingStiffness(k, PhaseVector{}) } -> std::same_as<double>;
     };
 
 }  // namespace mjstepper

@@ -82,6 +82,9 @@ struct CurrentMicrostep {
     s->integral_q = integral.imag();
     return setpoint.Phase(k, in.theta_cmd);
   }
+  double HoldingStiffness(const DriveConstants& k, PhaseVector rest_current) const {
+    return OpenLoopStiffness(k, rest_current);
+  }
 };
 
 /// An ideal current source: the windings carry the T(12)-(13) setpoint at every instant. The
@@ -114,6 +117,9 @@ struct IdealCurrent {
   }
   PhaseVector Rest(const DriveConstants& k, const RestInput& in, State*) const {
     return setpoint.Phase(k, in.theta_cmd);
+  }
+  double HoldingStiffness(const DriveConstants& k, PhaseVector rest_current) const {
+    return OpenLoopStiffness(k, rest_current);
   }
 };
 

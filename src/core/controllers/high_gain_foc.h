@@ -63,6 +63,9 @@ struct HighGainFoc {
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
                   State* s) const;
   PhaseVector Rest(const DriveConstants& k, const RestInput& in, State* s) const;
+  double HoldingStiffness(const DriveConstants&, PhaseVector) const {
+    return mechanical.Stiffness();
+  }
 };
 
 }  // namespace mjstepper

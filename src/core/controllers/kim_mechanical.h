@@ -67,6 +67,9 @@ struct KimMechanical {
   }
 
   /// The tracking errors at one tick.
+  /// The spring on e1 of the closed loop K(26), J·(k1 + k1p·k2), N·m/rad: its holding stiffness.
+  double Stiffness() const { return inertia * (k1 + k1p * k2); }
+
   struct Errors {
     double e1 = 0;      ///< θ − θd, rad, K(20)
     double e1_dot = 0;  ///< ω − θ̇d, rad/s

@@ -65,6 +65,8 @@ struct Servo {
                   State* s) const;
   /// At rest on its command the servo asks for no torque.
   PhaseVector Rest(const DriveConstants&, const RestInput&, State*) const { return 0; }
+  /// The position loop's spring, Kp (T(19)).
+  double HoldingStiffness(const DriveConstants&, PhaseVector) const { return kp; }
 };
 
 struct Identification {
@@ -90,6 +92,8 @@ struct Identification {
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
                   State* s) const;
   PhaseVector Rest(const DriveConstants&, const RestInput&, State*) const { return 0; }
+  /// No position loop: nothing holds the rotor.
+  double HoldingStiffness(const DriveConstants&, PhaseVector) const { return 0; }
 };
 
 }  // namespace mjstepper

@@ -55,6 +55,9 @@ struct Stmms {
     return KimMechanical::Commutate(mechanical.load_torque, k.torque_constant,
                                     UnitPhasor(k.rotor_teeth * in.theta));
   }
+  double HoldingStiffness(const DriveConstants&, PhaseVector) const {
+    return mechanical.Stiffness();
+  }
 };
 
 }  // namespace mjstepper

@@ -43,6 +43,9 @@ struct VoltageMicrostep {
   PhaseVector Rest(const DriveConstants& k, const RestInput& in, State*) const {
     return voltage_amplitude / k.resistance * UnitPhasor(k.rotor_teeth * in.theta_cmd);
   }
+  double HoldingStiffness(const DriveConstants& k, PhaseVector rest_current) const {
+    return OpenLoopStiffness(k, rest_current);
+  }
 };
 
 }  // namespace mjstepper
