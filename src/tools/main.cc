@@ -54,16 +54,10 @@ int Info(const std::string& path) {
         s.config.input == InputMode::kPosition ? "position (ctrl in rad)"
                                                : "velocity (ctrl in rad/s)",
         p.rotor_teeth, p.resistance, p.inductance, p.torque_constant, p.detent.size(),
-        drive.RestCurrentMagnitude(),
-        std::holds_alternative<Servo>(s.config.controller) ? "servo_kp (the position loop)"
-        : std::holds_alternative<Stmms>(s.config.controller) ||
-                std::holds_alternative<HighGainFoc>(s.config.controller)
-            ? "J·(k1 + k1p·k2), K(26)"
-            : "Nr·Km·I",
-        stiffness,
-        inertia, fn);
-    if (std::holds_alternative<Identification>(s.config.controller)) {
-      fmt::print("    identification mode: no holding stiffness; something else turns the shaft\n");
+        drive.RestCurrentMagnitude(), StiffnessFormula(s.config.controller), stiffness, inertia,
+        fn);
+    if (!(stiffness > 0)) {
+      fmt::print("    no holding stiffness: something else must hold or turn the shaft\n");
       continue;
     }
     for (const DetentHarmonic& dh : p.detent) {

@@ -102,6 +102,7 @@ concept ControllerUnit =
       { C::kName } -> std::convertible_to<const char*>;
       { C::kSummary } -> std::convertible_to<const char*>;
       { C::kDefaultSpeedFeedback } -> std::convertible_to<SpeedFeedback>;
+      { C::kStiffnessFormula } -> std::convertible_to<const char*>;
       { C::Attributes() } -> std::same_as<std::vector<const AttributeSpec*>>;
       { C::FromAttributes(attrs, motor, k) } -> std::same_as<C>;
       { C::Input::From(sample) } -> std::same_as<typename C::Input>;

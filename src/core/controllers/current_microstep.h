@@ -44,6 +44,8 @@ struct CurrentMicrostep {
       "PI current loop in the commanded frame, T(9)-(12), with the open-loop damping of T(13) "
       "when `damping` is set.";
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
+  /// How HoldingStiffness() is obtained (for `mjstepper info`).
+  static constexpr const char* kStiffnessFormula = "Nr·Km·I, T(1)";
 
   MicrostepSetpoint setpoint;
   DqCurrentLoop loop;
@@ -95,6 +97,8 @@ struct IdealCurrent {
       "the currents equal the `current_microstep` setpoint at every instant (no winding "
       "dynamics, no bus limit): the reference for what the loop should achieve.";
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
+  /// How HoldingStiffness() is obtained (for `mjstepper info`).
+  static constexpr const char* kStiffnessFormula = "Nr·Km·I, T(1)";
   static constexpr bool kIdealSource = true;
 
   MicrostepSetpoint setpoint;

@@ -42,6 +42,8 @@ struct HighGainFoc {
       "Kim's high-gain FOC baseline, K(33)-(34): the STMMS position controller with current "
       "feedback of gain ρ; `foc_case` picks case1 or case2.";
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kExact;
+  /// How HoldingStiffness() is obtained (for `mjstepper info`).
+  static constexpr const char* kStiffnessFormula = "J·(k1 + k1p·k2), K(26)";
 
   enum class Derivative { kAnalytic, kNumeric };
 

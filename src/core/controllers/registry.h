@@ -41,6 +41,12 @@ inline const char* ControllerName(const Controller& c) {
   return std::visit([](const auto& unit) { return std::decay_t<decltype(unit)>::kName; }, c);
 }
 
+/// How the controller's holding stiffness is obtained, e.g. "Nr·Km·I, T(1)".
+inline const char* StiffnessFormula(const Controller& c) {
+  return std::visit(
+      [](const auto& unit) { return std::decay_t<decltype(unit)>::kStiffnessFormula; }, c);
+}
+
 /// Every controller's name, in registry order.
 std::vector<std::string> ControllerNames();
 

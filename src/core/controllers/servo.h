@@ -40,6 +40,8 @@ struct Servo {
       "Tsui's servo with damping, T(18)-(19): encoder feedback, position loop every "
       "`position_period`, current loop every interrupt.";
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
+  /// How HoldingStiffness() is obtained (for `mjstepper info`).
+  static constexpr const char* kStiffnessFormula = "Kp, the position loop (T(19))";
 
   double kp = 1.0;                  ///< N·m/rad
   double ki = 10.0;                 ///< N·m/(rad·s)
@@ -75,6 +77,8 @@ struct Identification {
       "T(7)-(8), the servo with the position loop off (compensation only) while something else "
       "turns the shaft.";
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
+  /// How HoldingStiffness() is obtained (for `mjstepper info`).
+  static constexpr const char* kStiffnessFormula = "nothing holds the rotor in identification mode";
 
   double friction = 0.029;  ///< Fs the drive compensates, N·m
   HarmonicCompensation damping;

@@ -22,6 +22,8 @@ struct Stmms {
       "Kim's simplified torque modulated microstepping, K(20)-(32): position controller K(24), "
       "commutation K(27), feed-forward voltage K(28); no current feedback.";
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kExact;
+  /// How HoldingStiffness() is obtained (for `mjstepper info`).
+  static constexpr const char* kStiffnessFormula = "J·(k1 + k1p·k2), K(26)";
 
   KimMechanical mechanical;  // k1p = 40000, k0 = 10, k1 = 20, k2 = 100 (Kim §5)
 

@@ -19,6 +19,8 @@ struct VoltageMicrostep {
   static constexpr const char* kSummary =
       "open-loop voltage microstepping, K(5): va = Vmax·cos(Nr·θcmd), vb = Vmax·sin(Nr·θcmd).";
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
+  /// How HoldingStiffness() is obtained (for `mjstepper info`).
+  static constexpr const char* kStiffnessFormula = "Nr·Km·I, T(1), I = Vmax/R";
 
   double voltage_amplitude = 2.7;  ///< Vmax, V (Tsui: R·I_rated = 0.9 Ω · 3 A)
 
