@@ -23,8 +23,9 @@ namespace mjstepper::plugin {
 
 inline constexpr char kPluginName[] = "mjstepper.stepper";
 
-/// "" when the headers and the library agree, else a message naming both versions.
-std::string VersionMismatch(int built_for, int running);
+/// "" when the headers and the library agree, else a message naming both versions. Exported (the
+/// library hides everything else) for the plugin tests.
+[[gnu::visibility("default")]] std::string VersionMismatch(int built_for, int running);
 
 class Stepper {
  public:
