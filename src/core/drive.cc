@@ -150,8 +150,8 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   s.current_b = s.current_ref_b = current.imag();
   s.voltage_a = s.pending_a = voltage.real();
   s.voltage_b = s.pending_b = voltage.imag();
-  s.next_tick = std::ceil(time / config_.isr_period);
-  s.tick_time = s.next_tick * config_.isr_period;
+  s.next_tick = s.anchor_tick = std::ceil(time / config_.isr_period);
+  s.anchor_time = s.next_tick * config_.isr_period;
   return s;
 }
 
@@ -195,13 +195,18 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   } else {
     typename C::State unit = Unpack<typename C::State>(s->unit.data());
     const double period = config_.isr_period;  // T
-    // Tick times and step times meant to coincide differ by round-off only (different sums).
-    const double eps = 1e-9 * period;
-    if (s->tick_time < t0 - eps || s->tick_time > t0 + period + eps) {
+    // Tick times and step times meant to coincide differ by round-off only: of the period, and of
+    // the simulation time's own accumulation (a few ulp of t).
+    const double eps = 1e-9 * period + 8 * std::numeric_limits<double>::epsilon() * std::abs(t1);
+    const double t_next = NextTickTime(*s);
+    if (t_next < t0 - eps || t_next > t0 + period + eps) {
       // Time jumped forward or was moved back under the drive: resynchronise its clock.
-      s->next_tick = std::ceil((t0 - eps) / period);
-      s->tick_time = s->next_tick * period;
+      s->next_tick = s->anchor_tick = std::ceil((t0 - eps) / period);
+      s->anchor_time = s->next_tick * period;
       s->pending = 0;
+    } else if (std::abs(t_next - t0) <= eps) {  // the next tick is this step's start: anchor there
+      s->anchor_tick = s->next_tick;
+      s->anchor_time = t0;
     }
     PhaseVector current = s->current();
     PhaseVector voltage = s->voltage();
@@ -256,7 +261,7 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
     constexpr double kNever = std::numeric_limits<double>::infinity();
     while (true) {
       const double t_apply = s->pending ? s->apply_time : kNever;
-      const double t_tick = s->tick_time;
+      const double t_tick = NextTickTime(*s);
       const double t_event = std::min(t_apply, t_tick);
       // Events in [t0, t1 − eps] belong to this step; one within eps of t1 is the next step's, so
       // that a tick at a step boundary samples the command set for the step that starts there.
@@ -272,7 +277,6 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
         tick(static_cast<long>(s->next_tick));  // an integer held in a double
         s->apply_time = t_tick + config_.compute_delay;
         s->next_tick += 1;
-        s->tick_time = t_tick + period;
       }
     }
     s->current_a = current.real();

@@ -8,10 +8,11 @@
 //   t_k       sample i_ab(t_k), θ(t_k), θcmd(t_k); the controller computes v[k]
 //   t_k + D   v[k] reaches the phases and is held until t_{k+1} + D               S-15
 // With Tsui's timing (T = 50 µs, D = 25 µs) this is the paper's 37.5-82.5 µs delay window.
-// The clock starts at t_k0 = k0·T, the first multiple of T at or after the start, and then
-// advances t_{k+1} = t_k + T in floating point, the way a simulator advances its time. When T
-// equals the step, ticks and steps thus stay on the same instants bit for bit however long the
-// run; k·T would drift from MuJoCo's accumulated time by 5 µs over an hour at 20 kHz.
+// The clock starts on the grid k·T and is re-anchored to a step's start time t0 whenever its next
+// tick falls on t0 up to round-off: t_k = t_{k_a} + (k − k_a)·T from the last anchor k_a. So when
+// the step is a multiple or a fraction of T, ticks stay on step boundaries bit for bit however
+// long the run (MuJoCo's accumulated time drifts from n·h by 5 µs over an hour at 20 kHz), and the
+// clock never accumulates round-off of its own.
 //
 // A caller moves the drive from t0 to t1 (one simulation step, any length: several ticks per step
 // or several steps per tick) with the rotor angle moving linearly from its value at t0 to θ1 and
@@ -79,7 +80,8 @@ struct DriveCoreState {
   double pending = 0;            ///< 1 while pending_a/b wait for their apply time
   double apply_time = 0;         ///< s, when pending_a/b reach the phases: t_k + D (S-15)
   double next_tick = 0;          ///< k of the next interrupt
-  double tick_time = 0;          ///< s, its time t_k
+  double anchor_tick = 0;        ///< an interrupt k_a whose time is known exactly:
+  double anchor_time = 0;        ///< t_{k_a}, s; t_k = t_{k_a} + (k − k_a)·T
   double theta_meas = 0;         ///< rad, encoder angle at the last tick (S-16)
   double omega_est = 0;          ///< rad/s, velocity estimate at the last tick (S-17)
   double current_ref_a = 0;      ///< A, the controller's current reference at the last tick
@@ -159,6 +161,11 @@ class Drive {
   double Torque(const DriveCoreState& state, double theta) const;
 
   DriveSignals Signals(const DriveState& state, double theta) const;
+
+  /// Time of the next interrupt, s.
+  double NextTickTime(const DriveCoreState& s) const {
+    return s.anchor_time + (s.next_tick - s.anchor_tick) * config_.isr_period;
+  }
 
   /// The state from / to layout().total() doubles (a simulator's state array).
   DriveState Load(const double* values) const;

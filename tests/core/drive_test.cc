@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <numbers>
 #include <vector>
 
@@ -159,22 +160,32 @@ TEST(Drive, TicksAreIndependentOfTheSimulationStep) {
   }
 }
 
-// The interrupt clock advances by T the way MuJoCo advances d->time by its timestep, so with T
-// equal to the step the next tick falls exactly on the next step's start however long the run;
-// k·T itself drifts away from the accumulated time (by 1e-11 s after 10 s here).
+// The interrupt clock stays on MuJoCo's accumulated step times however long the run, with the
+// step equal to T or 50·T: it re-anchors at step starts, never accumulates round-off of its own,
+// and counts exactly one tick per period. (The absolute grid k·T drifts from the accumulated time,
+// by 1e-11 s after 10 s here.)
 TEST(Drive, ClockStaysOnAccumulatedStepTimes) {
-  const Drive drive(TsuiConfig(kCurrent, InputMode::kVelocity));
-  const double h = drive.config().isr_period, omega = RpmToRadPerSec(60);
-  DriveState s = drive.Rest(0.0, 0.0, omega);
-  double t = 0;
-  for (long k = 0; k < 200000; ++k) {
-    const double t1 = t + h;  // as mj_step: time += timestep
-    drive.Advance(&s, t, t1, omega * t1, omega);
-    t = t1;
+  for (const double ticks_per_step : {1.0, 50.0}) {
+    DriveConfig c = TsuiConfig(kCurrent, InputMode::kVelocity);
+    c.isr_period = 50e-6 / ticks_per_step;
+    c.compute_delay = c.isr_period / 2;
+    const Drive drive(c);
+    const double h = 50e-6, omega = RpmToRadPerSec(60);
+    const long steps = ticks_per_step == 1 ? 200000 : 20000;
+    DriveState s = drive.Rest(0.0, 0.0, omega);
+    double t = 0;
+    for (long k = 0; k < steps; ++k) {
+      const double t1 = t + h;  // as mj_step: time += timestep
+      drive.Advance(&s, t, t1, omega * t1, omega);
+      t = t1;
+    }
+    EXPECT_EQ(s.next_tick, steps * ticks_per_step);
+    EXPECT_NEAR(drive.NextTickTime(s), t, 4 * std::numeric_limits<double>::epsilon() * t);
+    if (ticks_per_step == 1) {
+      EXPECT_EQ(drive.NextTickTime(s), t);         // bit for bit
+      EXPECT_GT(std::abs(s.next_tick * h - t), 1e-12);  // while k·T has drifted
+    }
   }
-  EXPECT_EQ(s.tick_time, t);
-  EXPECT_EQ(s.next_tick, 200000);
-  EXPECT_NE(s.next_tick * h, t);  // the absolute grid would no longer match the steps
 }
 
 // Time set back under a running drive (a user rewinding d->time without a reset): the clock
@@ -187,7 +198,7 @@ TEST(Drive, ClockResynchronisesWhenTimeMovesBack) {
   ASSERT_EQ(s.next_tick, 200);
   drive.Advance(&s, 0.0, h, 0.0, 0.0);
   EXPECT_EQ(s.next_tick, 1);  // the tick at t = 0 ran; the next is at h
-  EXPECT_EQ(s.tick_time, h);
+  EXPECT_EQ(drive.NextTickTime(s), h);
 }
 
 // S-13: each phase is clamped to ±Vbus, and the PI integrator holds while the bridges saturate
@@ -329,7 +340,7 @@ TEST(Drive, HoldingStiffnessIsEachControllersOwn) {
 TEST(Drive, StateRoundTripsThroughDoubles) {
   const Drive drive(TsuiConfig(kCurrent, InputMode::kPosition));
   DriveState s = drive.Rest(0.1, 0.2, 0.3);
-  EXPECT_EQ(drive.layout().total(), 23 + 2);  // core + the PI integrators; no profile
+  EXPECT_EQ(drive.layout().total(), 24 + 2);  // core + the PI integrators; no profile
   std::vector<double> buffer(drive.layout().total());
   drive.Store(s, buffer.data());
   const DriveState back = drive.Load(buffer.data());

@@ -657,6 +657,9 @@ def write_report(p, runs, extra, measured, stability, figs, sim_wall, wall):
 
     # --- (b) ---
     b_unstable = [n for n in names if b[n]["unstable"]]
+    stmms_slip = (f"up to {b['STMMS']['lost_max']:.0f} full steps slipped at times "
+                  f"({b['STMMS']['lost_end'] + 0:.0f} at the end)"
+                  if ok["b"] and b["STMMS"]["lost_max"] > 0 else "no full step slipped")
     if len(b_unstable) == len(names):
         b_head = "All three controllers are unstable at 5 kHz in these runs."
     elif b_unstable:
@@ -938,7 +941,7 @@ with g = 1 for the STMMS and g = 1 + (k1p + k2)/ρ for the FOC (the ω̇ of its 
 ![]({figs.get('bench', '')})
 
 {b_head} {b_bound} {b_start}
-{"" if not ok["b"] else f"STMMS: max |e1| {sci(b['STMMS']['e1_motion'])} rad, speed swinging up to {b['STMMS']['omega_rest']:.0f} rad/s while θd is at rest, up to {b['STMMS']['lost_max']:.0f} full steps slipped at times ({b['STMMS']['lost_end']:.0f} at the end). FOC case 1: {sci(b['FOC case 1']['e1_end'])} rad off target at the end. FOC case 2: {sci(b['FOC case 2']['e1_end'])} rad off target at the end."}
+{"" if not ok["b"] else f"STMMS: max |e1| {sci(b['STMMS']['e1_motion'])} rad, speed swinging up to {b['STMMS']['omega_rest']:.0f} rad/s while θd is at rest, {stmms_slip}. FOC case 1: {sci(b['FOC case 1']['e1_end'])} rad off target at the end. FOC case 2: {sci(b['FOC case 2']['e1_end'])} rad off target at the end."}
 
 Why, from the sampled loop linearised at rest (q axis: rotor, winding, the drive's law, the voltage
 held over each period, e0 summed as the drive sums it; spectral radius > 1 is unstable):
