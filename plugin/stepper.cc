@@ -113,6 +113,7 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
   const std::variant<StepperConfig, std::string> parsed = ParseStepperConfig(read);
   if (const std::string* error = std::get_if<std::string>(&parsed)) return fail(*error);
   stepper->drive_.emplace(std::get<StepperConfig>(parsed).drive);
+  stepper->state_size_ = stepper->drive_->layout().total();
   stepper->gauge_ = std::get<StepperConfig>(parsed).gauge;
 
   for (int s = 0; s < m->nsensor; ++s) {
@@ -160,10 +161,6 @@ double Stepper::Command(const mjModel* m, const mjData* d, const Actuator& a) co
   return ctrl;
 }
 
-mjtNum* Stepper::Slot(const mjModel* m, const mjData* d, int instance, int slot) const {
-  return d->plugin_state + m->plugin_stateadr[instance] + slot * drive_->layout().total();
-}
-
 DriveState Stepper::CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const {
   DriveState state = drive_->Load(Slot(m, d, instance, slot));
   if (!state.started) {
@@ -183,9 +180,11 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
     const Actuator& a = actuators_[slot];
     // Torque from the currents at the step's start (as MuJoCo's dcmotor without actearly); the
     // core state suffices once the drive has started.
-    DriveCoreState state = Drive::LoadCore(Slot(m, d, instance, slot));
-    if (!state.started) state = CurrentState(m, d, instance, slot);
-    d->actuator_force[a.outadr] = drive_->Torque(state, d->actuator_length[a.outadr]);
+    const double* values = Slot(m, d, instance, slot);
+    const double theta = d->actuator_length[a.outadr];
+    d->actuator_force[a.outadr] = Drive::Started(values)
+                                      ? drive_->StoredTorque(values, theta)
+                                      : drive_->Torque(CurrentState(m, d, instance, slot), theta);
   }
 }
 

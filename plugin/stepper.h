@@ -64,12 +64,15 @@ class Stepper {
 
   Stepper() = default;
   double Command(const mjModel* m, const mjData* d, const Actuator& a) const;
-  mjtNum* Slot(const mjModel* m, const mjData* d, int instance, int slot) const;
+  mjtNum* Slot(const mjModel* m, const mjData* d, int instance, int slot) const {
+    return d->plugin_state + m->plugin_stateadr[instance] + slot * state_size_;
+  }
   // The state of slot, or the rest state it starts in when it has not started.
   DriveState CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const;
   void ComputeProbe(const mjModel* m, mjData* d, int instance) const;
 
   std::optional<Drive> drive_;  // empty for a probe
+  int state_size_ = 0;          // doubles of plugin_state per actuator: drive_->layout().total()
   bool gauge_ = true;
   std::vector<Actuator> actuators_;  // bound actuators, in id order
 };

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <limits>
 #include <optional>
@@ -110,10 +111,6 @@ DriveState Drive::Load(const double* values) const {
               sizeof(DriveCoreState));
   std::copy_n(values + layout_.core, layout_.controller + layout_.profile, s.unit.begin());
   return s;
-}
-
-DriveCoreState Drive::LoadCore(const double* values) {
-  return Unpack<DriveCoreState>(values);
 }
 
 void Drive::Store(const DriveState& s, double* values) const {
@@ -300,12 +297,15 @@ DecayKernel Drive::DecayFor(double length) const {
   return DecayKernel(config_.motor, length);
 }
 
-std::pair<double, double> Drive::Torques(const DriveCoreState& s, double theta) const {
+PhaseVector Drive::RotorPhasor(bool started, double stored_theta, PhaseVector stored_phasor,
+                               double theta) const {
   // e^{jx}, S-1: the one kept with the state's θ (Advance, Rest) when it is that angle.
-  const PhaseVector z = s.started && theta == s.theta
-                            ? s.rotor_phasor()
-                            : UnitPhasor(constants_.rotor_teeth * theta);
-  const double torque_em = constants_.torque_constant * (std::conj(z) * s.current()).imag();  // S-4
+  return started && theta == stored_theta ? stored_phasor
+                                          : UnitPhasor(constants_.rotor_teeth * theta);
+}
+
+std::pair<double, double> Drive::Torques(PhaseVector current, PhaseVector z) const {
+  const double torque_em = constants_.torque_constant * (std::conj(z) * current).imag();  // S-4
   // S-5: −Σh Kdh·sin(h·x + φh) = −Im(Σh wh·z^h) = −Im(z·(w1 + z·(w2 + z·(...))))
   PhaseVector sum(0, 0);
   for (auto w = detent_weights_.rbegin(); w != detent_weights_.rend(); ++w) sum = z * (*w + sum);
@@ -313,7 +313,19 @@ std::pair<double, double> Drive::Torques(const DriveCoreState& s, double theta) 
 }
 
 double Drive::Torque(const DriveCoreState& s, double theta) const {
-  const auto [torque_em, torque_detent] = Torques(s, theta);
+  const auto [torque_em, torque_detent] =
+      Torques(s.current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta));
+  return torque_em + torque_detent;
+}
+
+double Drive::StoredTorque(const double* values, double theta) const {
+  using S = DriveCoreState;  // standard layout, all doubles: a field is values[offset / 8]
+  auto field = [values](std::size_t offset) { return values[offset / sizeof(double)]; };
+  const PhaseVector z = RotorPhasor(
+      field(offsetof(S, started)) != 0, field(offsetof(S, theta)),
+      {field(offsetof(S, rotor_cos)), field(offsetof(S, rotor_sin))}, theta);
+  const auto [torque_em, torque_detent] =
+      Torques({field(offsetof(S, current_a)), field(offsetof(S, current_b))}, z);
   return torque_em + torque_detent;
 }
 
@@ -331,7 +343,8 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
   out.current_ref_b = s.current_ref_b;
   out.theta_cmd = s.theta_cmd;
   out.omega_cmd = s.omega_cmd;
-  std::tie(out.torque_em, out.torque_detent) = Torques(s, theta);
+  std::tie(out.torque_em, out.torque_detent) =
+      Torques(s.current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta));
   out.torque_total = out.torque_em + out.torque_detent;
   out.load_angle = motor.rotor_teeth * (s.theta_cmd - theta);  // S-12
   out.lost_steps = 4.0 * std::round(out.load_angle / kTwoPi);

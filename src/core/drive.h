@@ -101,6 +101,7 @@ struct DriveCoreState {
   PhaseVector voltage() const { return {voltage_a, voltage_b}; }
 };
 static_assert(std::is_trivially_copyable_v<DriveCoreState> &&
+              std::is_standard_layout_v<DriveCoreState> &&
               sizeof(DriveCoreState) % sizeof(double) == 0);
 
 /// Room for the largest controller state plus the profile's plan, in doubles.
@@ -159,6 +160,9 @@ class Drive {
 
   /// τm + τdet at rotor angle θ with the state's currents (N·m).
   double Torque(const DriveCoreState& state, double theta) const;
+  /// The same from a started state's stored doubles (layout().total() of them), reading only
+  /// what the torque needs: the actuator force of every simulation step.
+  double StoredTorque(const double* values, double theta) const;
 
   DriveSignals Signals(const DriveState& state, double theta) const;
 
@@ -169,8 +173,10 @@ class Drive {
 
   /// The state from / to layout().total() doubles (a simulator's state array).
   DriveState Load(const double* values) const;
-  /// The core alone (what Torque reads), without the controller's and profile's state.
-  static DriveCoreState LoadCore(const double* values);
+  /// Whether stored doubles hold a started state (else the drive starts at rest, Rest()).
+  static bool Started(const double* values) {
+    return values[offsetof(DriveCoreState, started) / sizeof(double)] != 0;
+  }
   void Store(const DriveState& state, double* values) const;
 
   /// Magnitude of the current vector the drive holds at rest, A: I_hold, Vmax/R in voltage mode,
@@ -187,8 +193,12 @@ class Drive {
   void AdvanceWith(const C& controller, DriveState* s, double t0, double t1, double theta1,
                    double command) const;
 
-  // τm + τdet from e^{jx} alone: τdet = −Im(Σh wh·(e^{jx})^h), wh = Kdh·e^{jφh}, by Horner's rule.
-  std::pair<double, double> Torques(const DriveCoreState& s, double theta) const;
+  // e^{jNr·θ}: the stored one when θ is the state's, else by sincos.
+  PhaseVector RotorPhasor(bool started, double stored_theta, PhaseVector stored_phasor,
+                          double theta) const;
+  // τm + τdet from the currents and z = e^{jx} alone: τdet = −Im(Σh wh·z^h), wh = Kdh·e^{jφh},
+  // by Horner's rule.
+  std::pair<double, double> Torques(PhaseVector current, PhaseVector z) const;
 
   // The decay part of an interval's kernel (winding.h): from decay_kernels_ for the clock's own
   // lengths, else computed.
