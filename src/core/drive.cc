@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstring>
 #include <limits>
+#include <numbers>
 #include <optional>
 #include <stdexcept>
 #include <tuple>
@@ -66,6 +67,13 @@ void Validate(const DriveConfig& c) {
       Require(limit > 0 && std::isfinite(limit), "profile limit", limit, "must be finite and > 0");
     }
   }
+}
+
+double SlipCell(double load_angle, double cell) {
+  constexpr double kThreshold = 1.25 * std::numbers::pi;  // π plus a margin of π/4
+  while (load_angle - kTwoPi * cell > kThreshold) cell += 1;
+  while (load_angle - kTwoPi * cell < -kThreshold) cell -= 1;
+  return cell;
 }
 
 StateLayout MakeStateLayout(const DriveConfig& c) {
@@ -141,6 +149,9 @@ DriveState Drive::Rest(double time, double theta, double command) const {
     Pack(MotionProfile::Rest(time, s.theta_cmd), s.unit.data() + layout_.controller);
   }
   s.theta_meas = EncoderAngle(theta, config_.encoder_counts);
+  // The rotor starts in the cycle nearest its command: that is where it is, not a slip.
+  s.slip_cell = s.slip_origin = std::round(constants_.rotor_teeth * (s.theta_cmd - theta) / kTwoPi);
+  s.last_slip_time = -1;
   // At rest v = R·i holds the current constant (S-3 with ω = 0).
   const PhaseVector voltage = config_.motor.resistance * current;
   s.current_a = s.current_ref_a = current.real();
@@ -288,6 +299,13 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   s->theta_cmd = end.theta;
   s->omega_cmd = profiled ? end.omega : omega_cmd;
   if (profiled) Pack(plan, s->unit.data() + layout_.controller);
+  if constexpr (C::kCountsSlips) {  // open loop: a slip is a whole electrical cycle lost or won
+    const double cell = SlipCell(constants_.rotor_teeth * (s->theta_cmd - theta1), s->slip_cell);
+    if (cell != s->slip_cell) {
+      s->slip_cell = cell;
+      s->last_slip_time = t1;
+    }
+  }
 }
 
 DecayKernel Drive::DecayFor(double length) const {
@@ -347,7 +365,9 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
       Torques(s.current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta));
   out.torque_total = out.torque_em + out.torque_detent;
   out.load_angle = motor.rotor_teeth * (s.theta_cmd - theta);  // S-12
-  out.lost_steps = 4.0 * std::round(out.load_angle / kTwoPi);
+  out.position_error = theta - s.theta_cmd;
+  out.lost_steps = 4.0 * (s.slip_cell - s.slip_origin) + 0.0;  // + 0.0: never −0
+  out.last_slip_time = s.last_slip_time;
   out.energy_input = s.energy_input;
   out.energy_copper = s.energy_copper;
   out.energy_mechanical = s.energy_mechanical;

@@ -64,6 +64,12 @@ struct DriveConfig {
 /// Throws std::invalid_argument naming the field, value and rule.
 void Validate(const DriveConfig& c);
 
+/// The electrical cycle k (δ ≈ 2π·k) a rotor at load angle δ sits in, given the cycle it was in:
+/// it moves on only when δ is more than 5π/4 from 2π·k, past the unstable equilibrium at ±π with
+/// a margin, so that a rotor hovering near ±π (at its pull-out torque) does not count slips back
+/// and forth. Any number of cycles may pass in one call.
+double SlipCell(double load_angle, double cell);
+
 /// The drive's own state, the same for every controller, as plain doubles. All zero = "not
 /// started": the drive then starts at rest on the rotor (Drive::Rest), SPEC §6.
 struct DriveCoreState {
@@ -91,6 +97,9 @@ struct DriveCoreState {
   double energy_mechanical = 0;  ///< J, ∫τm·ω dt
   double rotor_cos = 0;          ///< cos(Nr·θ): e^{jx} at `theta`, kept with it so that a step and
   double rotor_sin = 0;          ///< sin(Nr·θ)  the torque after it share one sincos (S-1)
+  double slip_cell = 0;          ///< k of the electrical cycle δ ≈ 2π·k the rotor sits in (SlipCell)
+  double slip_origin = 0;        ///< slip_cell at the start: slips = slip_cell − slip_origin
+  double last_slip_time = -1;    ///< s, end of the step of the last slip; −1: none yet
 
   PhaseVector current() const { return {current_a, current_b}; }
   PhaseVector rotor_phasor() const { return {rotor_cos, rotor_sin}; }
@@ -135,7 +144,9 @@ struct DriveSignals {
   double torque_detent = 0;                     ///< τdet, N·m (S-5)
   double torque_total = 0;                      ///< τm + τdet, N·m: the rotor's drive torque
   double load_angle = 0;                        ///< δ = Nr·(θcmd − θ), electrical rad (S-12)
-  double lost_steps = 0;                        ///< full steps slipped: 4·round(δ/2π), signed
+  double position_error = 0;                    ///< θ − θcmd, rad (rotor side): e1 of K(20)
+  double lost_steps = 0;                        ///< full steps slipped (4 per cycle), signed
+  double last_slip_time = -1;                   ///< s; −1 before the first slip
   double energy_input = 0, energy_copper = 0, energy_mechanical = 0;  ///< J
   double theta_meas = 0;                        ///< rad, encoder angle at the last tick
   double omega_est = 0;                         ///< rad/s, velocity estimate at the last tick

@@ -28,7 +28,15 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
       {"torque_total", "N·m", "τm + τdet, the torque on the rotor (actuator force)",
        &S::torque_total},
       {"load_angle", "rad (electrical)", "δ = Nr·(θcmd − θ) (S-12)", &S::load_angle},
-      {"lost_steps", "full steps", "4·round(δ/2π): full steps slipped, signed", &S::lost_steps},
+      {"position_error", "rad", "θ − θcmd (rotor side): the tracking error, e1 of K(20)",
+       &S::position_error},
+      {"lost_steps", "full steps",
+       "full steps slipped, signed (+: the rotor fell behind), 4 per electrical cycle, counted by "
+       "the open-loop drives when δ passes 2π·k ± 5π/4; 0 under the closed-loop ones (servo, "
+       "stmms, foc, identification), whose error is position_error",
+       &S::lost_steps},
+      {"last_slip_time", "s", "end of the step in which the last slip was counted; −1: none yet",
+       &S::last_slip_time},
       {"energy_input", "J", "∫(va·ia + vb·ib) dt since the start; S-8 holds between the three energies; 0 under `ideal_current`, which has no windings", &S::energy_input},
       {"energy_copper", "J", "∫R·(ia² + ib²) dt", &S::energy_copper},
       {"energy_mechanical", "J", "∫τm·ω dt", &S::energy_mechanical},

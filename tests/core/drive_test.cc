@@ -297,11 +297,50 @@ TEST(Drive, H14_PiLoopFundamentalOnPrescribedRotor) {
   EXPECT_LT(std::abs(lag_deg), 5.0) << "lag " << lag_deg << "°";
 }
 
-TEST(Drive, LostStepsCountFullElectricalCycles) {
-  const Drive drive(TsuiConfig(kIdeal, InputMode::kPosition));
-  const DriveState s = drive.Rest(0.0, 0.0, kTwoPi / 50);  // θcmd one electrical cycle ahead
-  EXPECT_EQ(drive.Signals(s, 0.0).lost_steps, 4.0);
-  EXPECT_EQ(drive.Signals(s, kTwoPi / 50).lost_steps, 0.0);
+// The slip counter: a rotor dragged back three electrical cycles behind its command, then one
+// forward, has lost 12 then 8 full steps, each counted once, at the step where δ passed 2π·k ±
+// 5π/4; a start away from the command is where the rotor is, not a slip; a closed-loop drive
+// reports its error as position_error and no lost steps.
+TEST(Drive, LostStepsCountWholeElectricalCycles) {
+  const double cycle = kTwoPi / 50;  // rad, one electrical cycle of the rotor
+  {
+    const Drive drive(TsuiConfig(kIdeal, InputMode::kPosition));
+    DriveState s = drive.Rest(0.0, 0.0, 2 * cycle);  // the command two cycles ahead: no slip
+    EXPECT_EQ(drive.Signals(s, 0.0).lost_steps, 0.0);
+    // θ(t): back 3 cycles over 0.3 s, then forward 1 over 0.1 s (1 ms steps; δ moves 0.5 rad
+    // per step at most, so each crossing is seen).
+    auto theta = [&](double t) {
+      return t < 0.3 ? -3 * cycle * t / 0.3 : -3 * cycle + cycle * (t - 0.3) / 0.1;
+    };
+    std::vector<double> lost;
+    RunPrescribed(drive, &s, 0.4, 1e-3, theta, [&](double) { return 2 * cycle; },
+                  [&](double, const DriveState& st) {
+                    lost.push_back(drive.Signals(st, st.theta).lost_steps);
+                  });
+    EXPECT_EQ(lost[299], 12.0);
+    EXPECT_EQ(lost.back(), 8.0);
+    // Each change is one cycle (4 full steps), never back and forth: 3 + 1 changes in all.
+    int changes = 0;
+    for (size_t k = 1; k < lost.size(); ++k) {
+      if (lost[k] != lost[k - 1]) {
+        ++changes;
+        EXPECT_EQ(std::abs(lost[k] - lost[k - 1]), 4.0) << "step " << k;
+      }
+    }
+    EXPECT_EQ(changes, 4);
+    // The last slip: going forward, δ/2π falls from 5 and passes 5 − 5/8 (cell 5 to 4) when the
+    // rotor has moved 5/8 of a cycle, 62.5 ms into the forward move (counted at that step's end).
+    EXPECT_NEAR(drive.Signals(s, s.theta).last_slip_time, 0.3 + 0.0625, 1e-3 + 1e-12);
+  }
+  {
+    const Drive drive(TsuiConfig(kServo, InputMode::kPosition));
+    DriveState s = drive.Rest(0.0, 0.0, 0.0);
+    drive.Advance(&s, 0.0, 5e-5, -3 * cycle, 0.0);  // whatever the servo does, θ is prescribed
+    const DriveSignals out = drive.Signals(s, s.theta);
+    EXPECT_EQ(out.lost_steps, 0.0);
+    EXPECT_EQ(out.last_slip_time, -1.0);
+    EXPECT_DOUBLE_EQ(out.position_error, -3 * cycle);
+  }
 }
 
 TEST(Drive, ValidateNamesFieldAndValue) {
@@ -340,7 +379,7 @@ TEST(Drive, HoldingStiffnessIsEachControllersOwn) {
 TEST(Drive, StateRoundTripsThroughDoubles) {
   const Drive drive(TsuiConfig(kCurrent, InputMode::kPosition));
   DriveState s = drive.Rest(0.1, 0.2, 0.3);
-  EXPECT_EQ(drive.layout().total(), 24 + 2);  // core + the PI integrators; no profile
+  EXPECT_EQ(drive.layout().total(), 27 + 2);  // core + the PI integrators; no profile
   std::vector<double> buffer(drive.layout().total());
   drive.Store(s, buffer.data());
   const DriveState back = drive.Load(buffer.data());

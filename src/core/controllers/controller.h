@@ -103,6 +103,9 @@ concept ControllerUnit =
       { C::kSummary } -> std::convertible_to<const char*>;
       { C::kDefaultSpeedFeedback } -> std::convertible_to<SpeedFeedback>;
       { C::kStiffnessFormula } -> std::convertible_to<const char*>;
+      // true: open loop, the drive counts slips of whole electrical cycles (lost_steps); false: a
+      // closed position loop, whose error is position_error.
+      { C::kCountsSlips } -> std::convertible_to<bool>;
       { C::Attributes() } -> std::same_as<std::vector<const AttributeSpec*>>;
       { C::FromAttributes(attrs, motor, k) } -> std::same_as<C>;
       { C::Input::From(sample) } -> std::same_as<typename C::Input>;

@@ -46,6 +46,7 @@ struct CurrentMicrostep {
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
   /// How HoldingStiffness() is obtained (for `mjstepper info`).
   static constexpr const char* kStiffnessFormula = "Nr·Km·I, T(1)";
+  static constexpr bool kCountsSlips = true;
 
   MicrostepSetpoint setpoint;
   DqCurrentLoop loop;
@@ -99,6 +100,7 @@ struct IdealCurrent {
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
   /// How HoldingStiffness() is obtained (for `mjstepper info`).
   static constexpr const char* kStiffnessFormula = "Nr·Km·I, T(1)";
+  static constexpr bool kCountsSlips = true;
   static constexpr bool kIdealSource = true;
 
   MicrostepSetpoint setpoint;

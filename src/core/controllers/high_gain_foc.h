@@ -44,6 +44,7 @@ struct HighGainFoc {
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kExact;
   /// How HoldingStiffness() is obtained (for `mjstepper info`).
   static constexpr const char* kStiffnessFormula = "J·(k1 + k1p·k2), K(26)";
+  static constexpr bool kCountsSlips = false;
 
   enum class Derivative { kAnalytic, kNumeric };
 

@@ -42,6 +42,7 @@ struct Servo {
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
   /// How HoldingStiffness() is obtained (for `mjstepper info`).
   static constexpr const char* kStiffnessFormula = "Kp, the position loop (T(19))";
+  static constexpr bool kCountsSlips = false;
 
   double kp = 1.0;                  ///< N·m/rad
   double ki = 10.0;                 ///< N·m/(rad·s)
@@ -79,6 +80,7 @@ struct Identification {
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
   /// How HoldingStiffness() is obtained (for `mjstepper info`).
   static constexpr const char* kStiffnessFormula = "nothing holds the rotor in identification mode";
+  static constexpr bool kCountsSlips = false;
 
   double friction = 0.029;  ///< Fs the drive compensates, N·m
   HarmonicCompensation damping;

@@ -24,6 +24,7 @@ struct Stmms {
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kExact;
   /// How HoldingStiffness() is obtained (for `mjstepper info`).
   static constexpr const char* kStiffnessFormula = "J·(k1 + k1p·k2), K(26)";
+  static constexpr bool kCountsSlips = false;
 
   KimMechanical mechanical;  // k1p = 40000, k0 = 10, k1 = 20, k2 = 100 (Kim §5)
 

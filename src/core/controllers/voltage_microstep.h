@@ -21,6 +21,7 @@ struct VoltageMicrostep {
   static constexpr SpeedFeedback kDefaultSpeedFeedback = SpeedFeedback::kEstimate;
   /// How HoldingStiffness() is obtained (for `mjstepper info`).
   static constexpr const char* kStiffnessFormula = "Nr·Km·I, T(1), I = Vmax/R";
+  static constexpr bool kCountsSlips = true;
 
   double voltage_amplitude = 2.7;  ///< Vmax, V (Tsui: R·I_rated = 0.9 Ω · 3 A)
 
