@@ -278,6 +278,45 @@ TEST(StepperPlugin, StaticFrictionSticksBelowFsAndSlipsAbove) {
   }
 }
 
+// Pull-out at rest and the slip counter: a rotor held by current microstepping at I = 1.9 A,
+// without detent or friction (its holding torque is then Km·I·sin δ alone), under an external
+// torque rising at 0.25 N·m/s, first slips when the torque passes Km·I = 0.57 N·m, and then counts
+// one slip per electrical cycle it falls behind. ± 2 %: the ramp adds 0.25 N·m/s × the time the
+// rotor needs to run from the unstable equilibrium δ = π/2 to the counting threshold 5π/4 (a few
+// ms at fn = 141 Hz: < 0.5 %), and the PI loop's current error at that speed (< 1 %).
+TEST(StepperPlugin, HoldingRotorSlipsAtPullOutAndCountsEachCycle) {
+  const std::string actuator = TsuiActuator(
+      "m1", "j1", Config("input", "position") + Config("detent", "none") + Config("hold_current", "1.9"));
+  const ModelPtr m = LoadModel(RotorModel(
+      actuator, "", R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  const double rate = 0.25;  // N·m/s
+  double slip_torque = -1;
+  std::vector<double> counts;  // lost steps at each step
+  while (d->time < 2.6) {
+    d->qfrc_applied[0] = -rate * d->time;  // against positive rotation: the rotor falls behind
+    mj_step(m.get(), d.get());
+    mj_forward(m.get(), d.get());  // the signals of the new state
+    if (slip_torque < 0 && d->sensordata[kLostSteps] != 0) slip_torque = rate * d->time;
+    counts.push_back(d->sensordata[kLostSteps]);
+  }
+  const double pull_out = 0.3 * 1.9;  // Km·I, N·m
+  ASSERT_GT(slip_torque, 0) << "never slipped";
+  EXPECT_NEAR(slip_torque, pull_out, 0.02 * pull_out);
+  // Every change is one cycle lost (+4 full steps), and the count matches the cycles the rotor
+  // actually fell behind: round((θcmd − θ)·Nr/2π) at the end.
+  for (size_t k = 1; k < counts.size(); ++k) {
+    if (counts[k] != counts[k - 1]) {
+      EXPECT_EQ(counts[k] - counts[k - 1], 4.0) << "step " << k;
+    }
+  }
+  const double cycles_behind = std::round(-d->qpos[0] * 50 / kTwoPi);
+  EXPECT_GT(cycles_behind, 3);
+  EXPECT_NEAR(counts.back() / 4, cycles_behind, 1.0);  // the last cycle may be under way
+  EXPECT_GT(d->sensordata[SignalIndex("last_slip_time")], slip_torque / rate - 1e-9);
+}
+
 // The load-angle gauge (visualize callback): two arrows per stepper in the scene, the rotor's at
 // −δ from the command's about the joint axis, so the angle between them is the load angle; none
 // with gauge="off".
