@@ -32,6 +32,11 @@ constexpr AttributeSpec kAttrResistance{"resistance", "real", "preset (0.9)", "�
                                         "R per phase; > 0."};
 constexpr AttributeSpec kAttrInductance{"inductance", "real", "preset (2.2e-3)", "H",
                                         "L per phase; > 0."};
+constexpr AttributeSpec kAttrRotorInertia{
+    "rotor_inertia", "real", "preset (0.36e-4)", "kg·m²",
+    "J, the rotor's inertia, >= 0. The actuator's `armature` must be at least J (MuJoCo reflects "
+    "it through gear²), or loading fails naming the value to add; 0: the model carries the rotor "
+    "itself (a body, or the joint's armature), nothing is checked."};
 constexpr AttributeSpec kAttrTorqueConstant{
     "torque_constant", "real", "preset (0.3)", "N·m/A (= V·s/rad)",
     "Km, torque and back-EMF constant; > 0. Datasheet: Km = T_H/(√2·I_rated)."};
@@ -96,7 +101,8 @@ constexpr AttributeSpec kAttrGauge{
 const std::vector<const AttributeSpec*>& DriveAttributes() {
   static const std::vector<const AttributeSpec*> list = {
       &kAttrMotor,         &kAttrDrive,          &kAttrInput,          &kAttrRotorTeeth,
-      &kAttrResistance,    &kAttrInductance,     &kAttrTorqueConstant, &kAttrDetent,
+      &kAttrResistance,    &kAttrInductance,     &kAttrTorqueConstant, &kAttrRotorInertia,
+      &kAttrDetent,
       &kAttrBusVoltage,    &kAttrIsrPeriod,      &kAttrComputeDelay,   &kAttrPowerStage,
       &kAttrEncoderCounts, &kAttrVelocityCutoff, &kAttrSpeedFeedback,  &kAttrProfile,
       &kAttrProfileSpeed,  &kAttrProfileAccel,   &kAttrProfileJerk,    &kAttrProfileStart,
@@ -117,6 +123,7 @@ DriveConfig Parse(const AttributeSource& a) {
   c.motor.resistance = a.Real(kAttrResistance, c.motor.resistance, Rule::kPositive);
   c.motor.inductance = a.Real(kAttrInductance, c.motor.inductance, Rule::kPositive);
   c.motor.torque_constant = a.Real(kAttrTorqueConstant, c.motor.torque_constant, Rule::kPositive);
+  c.motor.rotor_inertia = a.Real(kAttrRotorInertia, c.motor.rotor_inertia, Rule::kNonNegative);
   c.motor.detent = a.Harmonics(kAttrDetent).value_or(c.motor.detent);
 
   c.input = a.Choice(kAttrInput, "position", {"position", "velocity"}) == "velocity"

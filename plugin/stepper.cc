@@ -139,6 +139,26 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
                                    .outadr = m->actuator_outadr[a],
                                    .qposadr = m->jnt_qposadr[joint],
                                    .gear = m->actuator_gear[6 * m->actuator_outadr[a]]});
+    // The rotor's inertia is MuJoCo's business (armature); the preset knows its value.
+    const double rotor_inertia = stepper->drive_->config().motor.rotor_inertia;  // kg·m²
+    if (m->actuator_armature[a] < rotor_inertia * (1 - 1e-9)) {
+      return fail(fmt::format(
+          "{}: the motor's rotor inertia J = {:g} kg·m² is not in the model (armature = {:g}); "
+          "add armature=\"{:g}\" to the actuator (MuJoCo reflects it through gear²), or set "
+          "rotor_inertia=\"0\" if the model carries the rotor itself",
+          actuator, rotor_inertia, m->actuator_armature[a], rotor_inertia));
+    }
+    // The step the rotor alone needs (a load only lowers ωn): warn, as MuJoCo warns, if coarser.
+    const double inertia = std::max(m->actuator_armature[a], rotor_inertia);
+    const double largest = LargestTimestep(stepper->drive_->HoldingStiffness(), inertia);
+    if (inertia > 0 && m->opt.timestep > largest) {
+      mju_warning("%s", fmt::format("mjstepper: {}: timestep {:g} s is too coarse for the rotor "
+                                    "alone (ωn·h = {:.3g} > {}); use timestep <= {:.3g} s",
+                                    actuator, m->opt.timestep,
+                                    m->opt.timestep * kMaxOmegaTimesStep / largest,
+                                    kMaxOmegaTimesStep, largest)
+                            .c_str());
+    }
   }
   return stepper;
 }

@@ -69,6 +69,11 @@ void Validate(const DriveConfig& c) {
   }
 }
 
+double LargestTimestep(double stiffness, double inertia) {
+  if (!(stiffness > 0)) return std::numeric_limits<double>::infinity();
+  return kMaxOmegaTimesStep / std::sqrt(stiffness / inertia);
+}
+
 double SlipCell(double load_angle, double cell) {
   constexpr double kThreshold = 1.25 * std::numbers::pi;  // π plus a margin of π/4
   while (load_angle - kTwoPi * cell > kThreshold) cell += 1;

@@ -28,11 +28,6 @@
 namespace mjstepper::tools {
 namespace {
 
-// Semi-implicit Euler turns a spring of natural frequency ωn into one whose frequency is off by
-// about (ωn·h)²/24; above ωn·h = 0.2 that passes 0.17 % and the explicit motor torque starts to
-// distort the resonance this tool is for.
-constexpr double kMaxOmegaTimesStep = 0.2;
-
 int Info(const std::string& path) {
   const StepperModel sm = LoadStepperModel(path);
   const mjModel* m = sm.model.get();
@@ -41,15 +36,15 @@ int Info(const std::string& path) {
   for (const StepperActuator& s : sm.steppers) {
     const Drive drive(s.config);
     const MotorParams& p = s.config.motor;
-    const double inertia = ReflectedInertia(m, s.actuator);
-    const double stiffness = drive.HoldingStiffness();      // N·m/rad, T' = Nr·Km·I
-    const double omega_n = std::sqrt(stiffness / inertia);  // rad/s, T(1)
-    const double fn = omega_n / kTwoPi;                     // Hz
+    const StepperResolution r = Resolution(m, s);  // at qpos0, the other joints held
+    const double inertia = r.inertia, stiffness = r.stiffness, omega_n = r.omega_n;
+    const double fn = omega_n / kTwoPi;  // Hz, T(1)
     fmt::print(
         "  {}: drive {}, input {}\n"
         "    Nr {}, R {:g} Ω, L {:g} H, Km {:g} N·m/A, {} detent harmonic(s)\n"
         "    rest current {:g} A, holding stiffness T' = {} = {:.4g} N·m/rad\n"
-        "    rotor-side inertia J = {:.4g} kg·m² → fn = (1/2π)·√(T'/J) = {:.2f} Hz (S-1..S-7)\n",
+        "    rotor-side inertia at qpos0 (rotor and load, other joints held) J = {:.4g} kg·m²\n"
+        "      → fn = (1/2π)·√(T'/J) = {:.2f} Hz (S-1..S-7)\n",
         s.name, ControllerName(s.config.controller),
         s.config.input == InputMode::kPosition ? "position (ctrl in rad)"
                                                : "velocity (ctrl in rad/s)",
@@ -60,6 +55,8 @@ int Info(const std::string& path) {
       fmt::print("    no holding stiffness: something else must hold or turn the shaft\n");
       continue;
     }
+    fmt::print("    largest timestep that resolves it: {:.3g} s (ωn·h <= {}); the model's: {:g} s\n",
+               r.largest_timestep, kMaxOmegaTimesStep, h);
     for (const DetentHarmonic& dh : p.detent) {
       fmt::print("    detent h = {}: resonance at {:.1f} r/min (h·Nr·n/60 = fn)\n", dh.order,
                  60.0 * fn / (dh.order * p.rotor_teeth));
@@ -150,6 +147,9 @@ int main(int argc, char** argv) {
       "ACTUATOR.KEY=VALUE: change a stepper's <config> for this run, e.g. "
       "shaft.damping=all or shaft.drive=servo (repeatable)";
   run_cmd->add_option("--set", sets, set_help);
+  run_cmd->add_flag("--allow-coarse", run.allow_coarse,
+                    "run although a stepper's timestep is too coarse for its resonance "
+                    "(ωn·h > 0.2, see info)");
   std::vector<std::string> loads;
   run_cmd->add_option("--load", loads,
                       "ACTUATOR=TORQUE: the constant load torque τl (N·m, against positive "

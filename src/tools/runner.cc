@@ -27,6 +27,17 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   StepperModel sm = LoadStepperModel(options.model, options.overrides);
   for (const auto& [name, torque] : options.loads) SetLoadTorque(sm.model.get(), name, torque);
   const mjModel* m = sm.model.get();
+  for (const StepperActuator& s : sm.steppers) {
+    const StepperResolution r = Resolution(m, s);
+    if (m->opt.timestep > r.largest_timestep && !options.allow_coarse) {
+      throw std::invalid_argument(fmt::format(
+          "{}: timestep {:g} s is too coarse for stepper '{}': ωn = {:.4g} rad/s with the inertia "
+          "it moves (J = {:.4g} kg·m², T' = {:.4g} N·m/rad), ωn·h = {:.3g} > {}, so its resonance "
+          "and steps would be wrong; use timestep <= {:.3g} s, or pass --allow-coarse",
+          options.model, m->opt.timestep, s.name, r.omega_n, r.inertia, r.stiffness,
+          r.omega_n * m->opt.timestep, kMaxOmegaTimesStep, r.largest_timestep));
+    }
+  }
   DataPtr data(mj_makeData(m));
   mjData* d = data.get();
   mj_forward(m, d);

@@ -21,6 +21,7 @@ struct RunOptions {
   bool progress = true;                     ///< progress line on stderr for runs over ~2 s
   std::vector<ConfigOverride> overrides;    ///< e.g. shaft.damping=all
   std::map<std::string, double> loads;      ///< load actuator name → τl, N·m (SetLoadTorque)
+  bool allow_coarse = false;                ///< run although a stepper's ωn·h > 0.2
   bool keep_traces = false;                 ///< fill RunResult::traces (for studies and tests)
   RenderOptions render;                     ///< video and frames; off unless a path is given
 };

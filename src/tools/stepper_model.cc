@@ -4,7 +4,10 @@
 
 #include <cmath>
 
+#include <cstdio>
 #include <cstdlib>
+#include <mutex>
+#include <set>
 #include <stdexcept>
 #include <variant>
 #include <vector>
@@ -36,10 +39,21 @@ ModelPtr Compile(mjSpec* spec, const mjVFS* vfs) {
   return model;
 }
 
+// MuJoCo's warnings (the plugin's among them) on stderr, each distinct one once per run, instead of
+// MuJoCo's default: stdout and a MUJOCO_LOG.TXT in the working directory. Sweeps create one mjData
+// per run and thread, each of which would repeat the plugin's load-time warning.
+void WarnOnce(const char* message) {
+  static std::mutex mutex;
+  static std::set<std::string> seen;
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (seen.insert(message).second) std::fprintf(stderr, "warning: %s\n", message);
+}
+
 }  // namespace
 
 void LoadPluginLibrary() {
   static const bool loaded = [] {
+    mju_user_warning = WarnOnce;
     const char* env = std::getenv("MJSTEPPER_PLUGIN");
     mj_loadPluginLibrary(env != nullptr && env[0] != '\0' ? env : MJSTEPPER_PLUGIN_PATH);
     return true;
@@ -146,6 +160,15 @@ void SetLoadTorque(mjModel* m, const std::string& name, double torque) {
         what, name));
   }
   bias[0] = -torque;
+}
+
+StepperResolution Resolution(const mjModel* m, const StepperActuator& s) {
+  StepperResolution r;
+  r.stiffness = Drive(s.config).HoldingStiffness();
+  r.inertia = ReflectedInertia(m, s.actuator);
+  r.omega_n = std::sqrt(r.stiffness / r.inertia);
+  r.largest_timestep = LargestTimestep(r.stiffness, r.inertia);
+  return r;
 }
 
 double ReflectedInertia(const mjModel* m, int actuator) {

@@ -54,6 +54,15 @@ StepperModel LoadStepperModel(const std::string& path,
 /// not finite.
 void SetLoadTorque(mjModel* m, const std::string& name, double torque);
 
+/// What a stepper's holding resonance asks of the timestep, with the inertia it actually moves.
+struct StepperResolution {
+  double stiffness = 0;         ///< T', N·m/rad (Drive::HoldingStiffness)
+  double inertia = 0;           ///< rotor-side, kg·m² (ReflectedInertia)
+  double omega_n = 0;           ///< √(T'/J), rad/s
+  double largest_timestep = 0;  ///< s, kMaxOmegaTimesStep/ωn (infinite without stiffness)
+};
+StepperResolution Resolution(const mjModel* m, const StepperActuator& s);
+
 /// Rotor-side inertia seen by the actuator at qpos0, kg·m²: M[dof, dof] / gear² (armature
 /// included).
 double ReflectedInertia(const mjModel* m, int actuator);

@@ -317,6 +317,47 @@ TEST(StepperPlugin, HoldingRotorSlipsAtPullOutAndCountsEachCycle) {
   EXPECT_GT(d->sensordata[SignalIndex("last_slip_time")], slip_torque / rate - 1e-9);
 }
 
+// The preset's rotor inertia must reach the model: without armature the load fails naming the
+// exact value to add; rotor_inertia="0" says the model carries the rotor itself.
+TEST(StepperPlugin, MissingRotorInertiaFailsNamingTheArmature) {
+  const std::string bare =
+      R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" gear="3">)" +
+      Config("input", "velocity");
+  std::string error;
+  EXPECT_FALSE(LoadModel(RotorModel(bare + "</plugin>"), &error));
+  EXPECT_THAT(error, AllOf(HasSubstr("actuator 'm1'"), HasSubstr("J = 3.6e-05 kg·m²"),
+                           HasSubstr("add armature=\"3.6e-05\"")));
+  EXPECT_TRUE(LoadModel(RotorModel(bare + Config("rotor_inertia", "0") + "</plugin>"), &error))
+      << error;
+  EXPECT_TRUE(LoadModel(RotorModel(TsuiActuator("m1", "j1", Config("input", "velocity"))), &error))
+      << error;
+}
+
+std::vector<std::string>* captured_warnings = nullptr;
+
+// At a step too coarse for the rotor alone, loading warns through mju_warning, naming the step
+// and the largest one that resolves the resonance; at the shipped step it is silent.
+TEST(StepperPlugin, CoarseTimestepWarnsAtLoad) {
+  std::vector<std::string> warnings;
+  captured_warnings = &warnings;
+  mju_user_warning = [](const char* message) { captured_warnings->push_back(message); };
+  const std::string actuator = TsuiActuator("m1", "j1", Config("input", "velocity"));
+  std::vector<size_t> count;  // warnings after each load (the compiler makes an mjData too)
+  for (double h : {5e-5, 1e-3}) {
+    const ModelPtr m = LoadModel(RotorModel(actuator, "", "", 1, h));
+    ASSERT_TRUE(m);
+    const DataPtr d(mj_makeData(m.get()));
+    count.push_back(warnings.size());
+  }
+  mju_user_warning = nullptr;
+  EXPECT_EQ(count[0], 0u);
+  ASSERT_GT(count[1], 0u);
+  for (const std::string& w : warnings) {
+    EXPECT_THAT(w, AllOf(HasSubstr("actuator 'm1'"), HasSubstr("timestep 0.001 s"),
+                         HasSubstr("use timestep <= 0.000225 s")));
+  }
+}
+
 // The load-angle gauge (visualize callback): two arrows per stepper in the scene, the rotor's at
 // −δ from the command's about the joint axis, so the angle between them is the load angle; none
 // with gauge="off".

@@ -125,7 +125,10 @@ TEST(Runner, InfoGivesNaturalFrequencyAndResonantSpeeds) {
   EXPECT_THAT(r.output, ::testing::Not(HasSubstr("warning")));
 }
 
-TEST(Runner, InfoWarnsWhenTimestepIsTooCoarse) {
+// A timestep too coarse for a stepper's holding resonance (ωn·h > 0.2 with the inertia it moves):
+// info says so and names the largest step; the plugin warns once at load (for the rotor alone,
+// through MuJoCo's warning mechanism); run refuses to start unless given --allow-coarse.
+TEST(Runner, CoarseTimestepIsFoundAndEnforced) {
   std::ifstream in(kModel);
   std::stringstream text;
   text << in.rdbuf();
@@ -133,9 +136,22 @@ TEST(Runner, InfoWarnsWhenTimestepIsTooCoarse) {
   xml.replace(xml.find("timestep=\"5e-5\""), 15, "timestep=\"1e-3\"");
   const auto path = TempDir() / "coarse.xml";
   std::ofstream(path) << xml;
-  const Result r = RunCli("info " + path.string());
+  Result r = RunCli("info " + path.string());
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_THAT(r.output, AllOf(HasSubstr("warning"), HasSubstr("too coarse"), HasSubstr("0.001")));
+  EXPECT_THAT(r.output, AllOf(HasSubstr("warning"), HasSubstr("too coarse"), HasSubstr("0.001"),
+                              HasSubstr("largest timestep that resolves it: 0.000225 s")));
+  // The plugin's own warning (rotor alone: ωn = √(28.5/3.6e-5) = 890 rad/s, ωn·h = 0.89), once.
+  const std::string plugin_warning = "timestep 0.001 s is too coarse for the rotor alone";
+  EXPECT_THAT(r.output, HasSubstr(plugin_warning));
+  EXPECT_EQ(r.output.find(plugin_warning), r.output.rfind(plugin_warning)) << r.output;
+
+  r = RunCli("run " + path.string() + " --duration 0.05 --quiet");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, AllOf(HasSubstr("too coarse for stepper 'shaft'"),
+                              HasSubstr("use timestep <= 0.000225 s"),
+                              HasSubstr("--allow-coarse")));
+  r = RunCli("run " + path.string() + " --duration 0.05 --quiet --allow-coarse");
+  EXPECT_EQ(r.status, 0) << r.output;
 }
 
 }  // namespace
