@@ -68,6 +68,18 @@ int Info(const std::string& path) {
           h, omega_n * h, kMaxOmegaTimesStep, kMaxOmegaTimesStep / omega_n);
     }
   }
+  const double highest = HighestMode(m, sm.steppers);  // rad/s
+  if (highest > 0) {
+    fmt::print(
+        "  model: highest natural frequency (joint springs and the steppers' T', M at qpos0) "
+        "{:.1f} Hz: largest timestep {:.3g} s\n",
+        highest / kTwoPi, kMaxOmegaTimesStep / highest);
+    if (highest * h > kMaxOmegaTimesStep) {
+      fmt::print("  warning: timestep {:g} s is too coarse for the model's highest mode: ωn·h = "
+                 "{:.3f} > {}\n",
+                 h, highest * h, kMaxOmegaTimesStep);
+    }
+  }
   return 0;  // warnings inform; they do not fail the command
 }
 

@@ -38,6 +38,15 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
           r.omega_n * m->opt.timestep, kMaxOmegaTimesStep, r.largest_timestep));
     }
   }
+  if (const double highest = HighestMode(m, sm.steppers);
+      highest * m->opt.timestep > kMaxOmegaTimesStep && !options.allow_coarse) {
+    throw std::invalid_argument(fmt::format(
+        "{}: timestep {:g} s is too coarse for the model's highest natural frequency {:.1f} Hz "
+        "(joint springs and the steppers' holding stiffness): ωn·h = {:.3g} > {}; use timestep "
+        "<= {:.3g} s, or pass --allow-coarse",
+        options.model, m->opt.timestep, highest / kTwoPi, highest * m->opt.timestep,
+        kMaxOmegaTimesStep, kMaxOmegaTimesStep / highest));
+  }
   DataPtr data(mj_makeData(m));
   mjData* d = data.get();
   mj_forward(m, d);

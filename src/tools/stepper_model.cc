@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Dense>
+
+#include <algorithm>
 #include <cmath>
 
 #include <cstdio>
@@ -169,6 +172,30 @@ StepperResolution Resolution(const mjModel* m, const StepperActuator& s) {
   r.omega_n = std::sqrt(r.stiffness / r.inertia);
   r.largest_timestep = LargestTimestep(r.stiffness, r.inertia);
   return r;
+}
+
+double HighestMode(const mjModel* m, const std::vector<StepperActuator>& steppers) {
+  const int nv = m->nv;
+  if (nv == 0) return 0;
+  DataPtr d(mj_makeData(m));
+  mj_forward(m, d.get());
+  std::vector<mjtNum> dense(nv * nv);
+  mj_fullM(m, d.get(), dense.data());
+  const Eigen::MatrixXd mass = Eigen::Map<Eigen::MatrixXd>(dense.data(), nv, nv);  // symmetric
+  Eigen::MatrixXd stiffness = Eigen::MatrixXd::Zero(nv, nv);
+  for (int j = 0; j < m->njnt; ++j) {
+    if (m->jnt_type[j] == mjJNT_HINGE || m->jnt_type[j] == mjJNT_SLIDE) {
+      stiffness(m->jnt_dofadr[j], m->jnt_dofadr[j]) += m->jnt_stiffness[j];
+    }
+  }
+  for (const StepperActuator& s : steppers) {
+    const int dof = m->jnt_dofadr[m->actuator_trnid[2 * s.actuator]];
+    const double gear = m->actuator_gear[6 * m->actuator_outadr[s.actuator]];
+    stiffness(dof, dof) += Drive(s.config).HoldingStiffness() * gear * gear;
+  }
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> solver(
+      stiffness, mass, Eigen::EigenvaluesOnly);
+  return std::sqrt(std::max(0.0, solver.eigenvalues().maxCoeff()));
 }
 
 double ReflectedInertia(const mjModel* m, int actuator) {

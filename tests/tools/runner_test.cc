@@ -117,6 +117,16 @@ TEST(Runner, LoadSetsTheConstantLoadTorque) {
   EXPECT_THAT(r.output, HasSubstr("--load load=nan"));
 }
 
+// info on the compliant coupling: the stepper's own frequency with the load held rigidly
+// (√(T'/(J_r + J_l)) = 81.76 Hz) and the model's highest mode, the two-mass closed form's fast
+// one (260.0 Hz for T' = 28.5, k = 50, J_r = 0.36e-4, J_l = 0.72e-4), which sets the step.
+TEST(Runner, InfoGivesTheTwoMassModeThatSetsTheStep) {
+  const Result r = RunCli("info " MJSTEPPER_SOURCE_DIR "/models/tsui_coupling.xml");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, AllOf(HasSubstr("81.76 Hz"), HasSubstr("highest natural frequency"),
+                              HasSubstr("260.0 Hz: largest timestep 0.000122 s")));
+}
+
 TEST(Runner, InfoGivesNaturalFrequencyAndResonantSpeeds) {
   const Result r = RunCli("info " + kModel);
   ASSERT_EQ(r.status, 0) << r.output;
