@@ -186,6 +186,26 @@ int main(int argc, char** argv) {
   sweep_cmd->add_option("--set", sets, set_help);
   sweep_cmd->add_flag("--quiet", quiet, "no progress line");
 
+  PullOutOptions pullout;
+  std::string pullout_speeds, pullout_out;
+  CLI::App* pullout_cmd = app.add_subcommand(
+      "pullout", "pull-out torque curve: at each speed, a rising load torque until the first slip");
+  pullout_cmd->add_option("model", pullout.model, "MJCF model")
+      ->required()
+      ->check(CLI::ExistingFile);
+  pullout_cmd->add_option("--speeds", pullout_speeds, "from:to:step or a,b,c with a unit")
+      ->required();
+  pullout_cmd->add_option("--actuator", pullout.actuator, "the stepper (default: the only one)");
+  pullout_cmd->add_option("--out", pullout_out, "output prefix: writes PREFIX.csv and PREFIX.png")
+      ->required();
+  pullout_cmd->add_option("--rate", pullout.rate, "N·m/s: how fast the load torque rises")
+      ->default_val(pullout.rate);
+  pullout_cmd->add_option("--max-torque", pullout.max_torque, "N·m: stop a run that holds this")
+      ->default_val(pullout.max_torque);
+  pullout_cmd->add_option("--threads", pullout.threads, "worker threads (default: one per core)");
+  pullout_cmd->add_option("--set", sets, set_help);
+  pullout_cmd->add_flag("--quiet", quiet, "no progress line");
+
   IdentifyOptions identify;
   std::string identify_speeds = "10,30rpm";
   CLI::App* identify_cmd = app.add_subcommand(
@@ -294,6 +314,25 @@ int main(int argc, char** argv) {
       fmt::print("  <config key=\"damping_detent\" value=\"{}\"/>\n", id.DampingDetent());
       fmt::print("  <config key=\"friction_compensation\" value=\"{:.5g}\"/>\n",
                  id.static_friction);
+      return 0;
+    }
+    if (*pullout_cmd) {
+      pullout.speeds = ParseSpeedList(pullout_speeds);
+      pullout.progress = !quiet;
+      for (const std::string& s : sets) pullout.overrides.push_back(ParseOverride(s));
+      const auto start = std::chrono::steady_clock::now();
+      const std::vector<PullOutPoint> points = PullOut(pullout, std::cerr);
+      WritePullOutCsv(pullout_out + ".csv", points);
+      Plot("pullout", {pullout_out + ".csv"}, {}, pullout_out + ".png",
+           fmt::format("{}: pull-out torque", pullout.model));
+      const auto best = std::max_element(
+          points.begin(), points.end(),
+          [](const PullOutPoint& a, const PullOutPoint& b) { return a.torque < b.torque; });
+      fmt::print("{} speeds in {:.1f} s; highest pull-out torque {:.3f} N·m at {:.1f} r/min\n"
+                 "  wrote {}.csv\n  wrote {}.png\n",
+                 points.size(),
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                 best->torque, RadPerSecToRpm(best->speed), pullout_out, pullout_out);
       return 0;
     }
     if (*sweep_cmd) {

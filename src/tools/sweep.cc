@@ -7,6 +7,8 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
+#include <numbers>
 #include <ostream>
 #include <stdexcept>
 #include <thread>
@@ -32,17 +34,26 @@ double ParseSpeed(const std::string& number, const std::string& unit, const std:
   throw std::invalid_argument(fmt::format("--speeds {}: unit must be rpm, r/min or rad/s", whole));
 }
 
+// The command of a run at constant speed: a ramp from rest at `acceleration`, then the speed.
+struct SpeedRamp {
+  SpeedRamp(double speed, double acceleration)
+      : duration(std::max(std::abs(speed) / acceleration, 1e-6)),
+        profile(CommandProfile::Parse(
+            fmt::format("ramp(0rad/s, {:.17g}rad/s, {:.17g}s)", speed, duration))) {}
+  double duration;  // s
+  CommandProfile profile;
+};
+
 // One constant-speed run on its own mjData.
 SweepPoint RunOne(const mjModel* m, const StepperActuator& s, double speed, const SweepOptions& o) {
   DataPtr data(mj_makeData(m));
   mjData* d = data.get();
   mj_forward(m, d);
   const double theta_start = d->actuator_length[s.outadr];
-  const double ramp = std::max(speed / o.acceleration, 1e-6);
-  const CommandProfile profile =
-      CommandProfile::Parse(fmt::format("ramp(0rad/s, {:.17g}rad/s, {:.17g}s)", speed, ramp));
+  const SpeedRamp ramp(speed, o.acceleration);
+  const CommandProfile& profile = ramp.profile;
   const double h = m->opt.timestep;
-  const long start = std::lround((ramp + o.settle) / h);
+  const long start = std::lround((ramp.duration + o.settle) / h);
   const long steps = start + std::lround(o.measure / h);
   std::vector<double> error;
   error.reserve(steps - start);
@@ -59,6 +70,95 @@ SweepPoint RunOne(const mjModel* m, const StepperActuator& s, double speed, cons
   p.dominant_frequency = DominantFrequency(error, 1.0 / h, 5.0, 1000.0, 0.5);
   p.lost_steps = d->sensordata[s.sensor_adr + SignalIndex("lost_steps")];
   return p;
+}
+
+// Whether the drive has lost its rotor: a counted slip (open-loop drives), or a tracking error of
+// more than the slip threshold 5π/4 electrical (closed-loop drives, which count none).
+bool Slipped(const mjData* d, const StepperActuator& s) {
+  static const int kLost = SignalIndex("lost_steps"), kAngle = SignalIndex("load_angle");
+  const double* signals = d->sensordata + s.sensor_adr;
+  const double cycles = signals[kLost] / 4;
+  return cycles != 0 || std::abs(signals[kAngle] - kTwoPi * cycles) > 1.25 * std::numbers::pi;
+}
+
+// One pull-out run: to speed, settle, then a load torque rising at o.rate against the motion
+// until the first slip.
+PullOutPoint RunPullOut(const mjModel* m, const StepperActuator& s, double speed,
+                        const PullOutOptions& o) {
+  DataPtr data(mj_makeData(m));
+  mjData* d = data.get();
+  mj_forward(m, d);
+  const double theta_start = d->actuator_length[s.outadr];
+  const SpeedRamp ramp(speed, o.acceleration);
+  const CommandProfile& profile = ramp.profile;
+  const double h = m->opt.timestep;
+  const double load_start = ramp.duration + o.settle;  // s
+  const int dof = m->jnt_dofadr[m->actuator_trnid[2 * s.actuator]];
+  const double gear = m->actuator_gear[6 * s.outadr];
+  const double against = speed < 0 ? 1.0 : -1.0;  // the load opposes the motion
+  PullOutPoint p{.speed = speed};
+  while (true) {
+    const double t = d->time;
+    const double load = t < load_start ? 0.0 : o.rate * (t - load_start);  // N·m, rotor side
+    if (load > o.max_torque) {
+      p.torque = o.max_torque;
+      p.held_max = true;
+      break;
+    }
+    d->qfrc_applied[dof] = against * gear * load;
+    d->ctrl[s.ctrladr] = profile.ControlForStep(t, h, s.config.input, theta_start);
+    mj_step(m, d);
+    mj_forward(m, d);  // the signals of the new state
+    if (Slipped(d, s)) {
+      p.torque = load;
+      p.slipped_unloaded = t < load_start;
+      break;
+    }
+  }
+  return p;
+}
+
+// The stepper named `actuator`, or the model's only one.
+const StepperActuator& FindTarget(const StepperModel& sm, const std::string& actuator,
+                                  const std::string& model) {
+  const StepperActuator* target = nullptr;
+  for (const StepperActuator& s : sm.steppers) {
+    if (actuator.empty() ? sm.steppers.size() == 1 : s.name == actuator) target = &s;
+  }
+  if (target == nullptr) {
+    std::string names;
+    for (const StepperActuator& s : sm.steppers) names += (names.empty() ? "" : ", ") + s.name;
+    throw std::invalid_argument(
+        fmt::format("--actuator '{}': not a stepper of {} (steppers: {}){}", actuator, model,
+                    names, actuator.empty() ? "; name one with --actuator" : ""));
+  }
+  return *target;
+}
+
+// run(i) for i in [0, n) on `threads` workers (0: one per core), each run on its own mjData, with
+// a progress line naming `what`.
+void ParallelFor(size_t n, int threads, bool show_progress, const char* what,
+                 std::ostream& progress, const std::function<void(size_t)>& run) {
+  std::atomic<size_t> next{0}, done{0};
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const size_t workers = std::min<size_t>(threads > 0 ? threads : cores, n);
+  {
+    std::vector<std::jthread> pool;
+    for (size_t w = 0; w < workers; ++w) {
+      pool.emplace_back([&] {
+        for (size_t i = next++; i < n; i = next++) {
+          run(i);
+          ++done;
+        }
+      });
+    }
+    while (show_progress && done < n) {
+      fmt::print(progress, "\r  {}: {}/{} speeds ({} threads)", what, done.load(), n, workers);
+      progress.flush();
+      std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    }
+  }
+  if (show_progress) fmt::print(progress, "\r  {0}: {1}/{1} speeds ({2} threads)\n", what, n, workers);
 }
 
 }  // namespace
@@ -102,41 +202,41 @@ std::vector<SweepPoint> Sweep(const SweepOptions& o, std::ostream& progress) {
         o.settle, o.measure, o.acceleration));
   }
   const StepperModel sm = LoadStepperModel(o.model, o.overrides);
-  const StepperActuator* target = nullptr;
-  for (const StepperActuator& s : sm.steppers) {
-    if (o.actuator.empty() ? sm.steppers.size() == 1 : s.name == o.actuator) target = &s;
-  }
-  if (target == nullptr) {
-    std::string names;
-    for (const StepperActuator& s : sm.steppers) names += (names.empty() ? "" : ", ") + s.name;
-    throw std::invalid_argument(
-        fmt::format("--actuator '{}': not a stepper of {} (steppers: {}){}", o.actuator, o.model,
-                    names, o.actuator.empty() ? "; name one with --actuator" : ""));
-  }
+  const StepperActuator& target = FindTarget(sm, o.actuator, o.model);
   std::vector<SweepPoint> points(o.speeds.size());
-  std::atomic<size_t> next{0}, done{0};
-  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  const size_t workers = std::min<size_t>(o.threads > 0 ? o.threads : cores, o.speeds.size());
-  {
-    std::vector<std::jthread> pool;
-    for (size_t w = 0; w < workers; ++w) {
-      pool.emplace_back([&] {
-        for (size_t i = next++; i < o.speeds.size(); i = next++) {
-          points[i] = RunOne(sm.model.get(), *target, o.speeds[i], o);
-          ++done;
-        }
-      });
-    }
-    while (o.progress && done < o.speeds.size()) {
-      fmt::print(progress, "\r  sweep: {}/{} speeds ({} threads)", done.load(), o.speeds.size(),
-                 workers);
-      progress.flush();
-      std::this_thread::sleep_for(std::chrono::milliseconds(250));
-    }
-  }
-  if (o.progress)
-    fmt::print(progress, "\r  sweep: {0}/{0} speeds ({1} threads)\n", o.speeds.size(), workers);
+  ParallelFor(o.speeds.size(), o.threads, o.progress, "sweep", progress, [&](size_t i) {
+    points[i] = RunOne(sm.model.get(), target, o.speeds[i], o);
+  });
   return points;
+}
+
+std::vector<PullOutPoint> PullOut(const PullOutOptions& o, std::ostream& progress) {
+  if (o.speeds.empty()) throw std::invalid_argument("--speeds: no speed to measure");
+  if (!(o.settle >= 0) || !(o.acceleration > 0) || !(o.rate > 0) || !(o.max_torque > 0) ||
+      !std::isfinite(o.max_torque)) {
+    throw std::invalid_argument(fmt::format(
+        "pullout: settle = {} s (>= 0), acceleration = {} rad/s² (> 0), rate = {} N·m/s (> 0), "
+        "max torque = {} N·m (finite, > 0)",
+        o.settle, o.acceleration, o.rate, o.max_torque));
+  }
+  const StepperModel sm = LoadStepperModel(o.model, o.overrides);
+  const StepperActuator& target = FindTarget(sm, o.actuator, o.model);
+  std::vector<PullOutPoint> points(o.speeds.size());
+  ParallelFor(o.speeds.size(), o.threads, o.progress, "pullout", progress, [&](size_t i) {
+    points[i] = RunPullOut(sm.model.get(), target, o.speeds[i], o);
+  });
+  return points;
+}
+
+void WritePullOutCsv(const std::string& path, const std::vector<PullOutPoint>& points) {
+  CsvWriter csv(path, {"speed[r/min]", "speed[rad/s]", "pull_out_torque[N·m]",
+                       "slipped_before_load[1/0]", "held_max_torque[1/0]"});
+  for (const PullOutPoint& p : points) {
+    const double row[] = {RadPerSecToRpm(p.speed), p.speed, p.torque,
+                          p.slipped_unloaded ? 1.0 : 0.0, p.held_max ? 1.0 : 0.0};
+    csv.Row(row);
+  }
+  csv.Commit();
 }
 
 void WriteSweepCsv(const std::string& path, const std::vector<SweepPoint>& points) {

@@ -1,6 +1,8 @@
-// `mjstepper sweep`: constant-speed runs over a list of speeds, the resonance map of a stepper.
-// Each run ramps to its speed, settles, then measures the velocity error ω − ωcmd: RMS,
-// peak-to-peak and dominant frequency. Runs are spread over worker threads, one mjData each.
+// Runs over a list of speeds, spread over worker threads, one mjData each:
+// - `mjstepper sweep`, the resonance map of a stepper: each run ramps to its speed, settles, then
+//   measures the velocity error ω − ωcmd: RMS, peak-to-peak and dominant frequency;
+// - `mjstepper pullout`, the datasheet's pull-out torque curve: each run ramps to its speed,
+//   settles, then loads the rotor with a torque rising against the motion until the first slip.
 #ifndef MJSTEPPER_TOOLS_SWEEP_H_
 #define MJSTEPPER_TOOLS_SWEEP_H_
 
@@ -32,6 +34,26 @@ struct SweepPoint {
   double lost_steps = 0;          ///< full steps slipped by the end
 };
 
+struct PullOutOptions {
+  std::string model;                      ///< MJCF path
+  std::string actuator;                   ///< the stepper; empty: the model's only one
+  std::vector<double> speeds;             ///< rad/s
+  double acceleration = 209.44;           ///< rad/s² of the ramp to each speed (2000 r/min/s)
+  double settle = 0.3;                    ///< s at speed before the load starts
+  double rate = 0.5;                      ///< N·m/s, rotor side: how fast the load torque rises
+  double max_torque = 5;                  ///< N·m: a run that holds this much ends there
+  int threads = 0;                        ///< 0: one per core
+  std::vector<ConfigOverride> overrides;  ///< e.g. shaft.bus_voltage=24
+  bool progress = true;
+};
+
+struct PullOutPoint {
+  double speed = 0;               ///< rad/s, commanded
+  double torque = 0;              ///< N·m, rotor side: the load at the first slip
+  bool slipped_unloaded = false;  ///< it slipped before the load started (torque 0)
+  bool held_max = false;          ///< it held max_torque without slipping
+};
+
 /// "10:200:2.5rpm" (from:to:step, inclusive), "50,100,150rpm", or one speed; units rpm, r/min,
 /// rad/s. Throws std::invalid_argument quoting the text.
 std::vector<double> ParseSpeedList(const std::string& text);
@@ -39,7 +61,13 @@ std::vector<double> ParseSpeedList(const std::string& text);
 /// Throws std::runtime_error / std::invalid_argument with a message for the user.
 std::vector<SweepPoint> Sweep(const SweepOptions& options, std::ostream& progress);
 
-/// CSV with a header naming units, written to path.tmp and renamed.
+/// Throws std::runtime_error / std::invalid_argument with a message for the user. The load is a
+/// generalised force on the stepper's joint (gear·τ), on top of the model's own friction and
+/// damping: the curve is the torque left for a load.
+std::vector<PullOutPoint> PullOut(const PullOutOptions& options, std::ostream& progress);
+
+/// CSVs with a header naming units, written to path.tmp and renamed.
+void WritePullOutCsv(const std::string& path, const std::vector<PullOutPoint>& points);
 void WriteSweepCsv(const std::string& path, const std::vector<SweepPoint>& points);
 
 }  // namespace mjstepper::tools

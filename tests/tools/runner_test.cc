@@ -194,6 +194,24 @@ TEST(Sweep, WritesCsvAndPng) {
 
 // --set changes a stepper's config for one run: damping all lowers the ripple at the 2nd-harmonic
 // resonance; a bad actuator name is an error that names it.
+TEST(PullOut, WritesCsvAndPngAndNamesBadOptions) {
+  const auto prefix = TempDir() / "pullout";
+  Result r = RunCli("pullout " + kModel + " --speeds 50,600rpm --quiet --out " + prefix.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("highest pull-out torque"));
+  std::ifstream in(prefix.string() + ".csv");
+  std::string header, line;
+  std::getline(in, header);
+  EXPECT_THAT(header, AllOf(HasSubstr("speed[r/min]"), HasSubstr("pull_out_torque[N·m]")));
+  int rows = 0;
+  while (std::getline(in, line)) ++rows;
+  EXPECT_EQ(rows, 2);
+  EXPECT_TRUE(IsPng(prefix.string() + ".png"));
+  r = RunCli("pullout " + kModel + " --speeds 50rpm --rate -1 --quiet --out " + prefix.string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("rate = -1"));
+}
+
 TEST(Runner, SetOverridesConfigForOneRun) {
   auto max_error = [](const std::string& extra) {
     const Result r = RunCli(

@@ -120,6 +120,25 @@ def plot_sweep(paths, labels, out, title=None):
     save(fig, out)
 
 
+def plot_pullout(path, out, title=None):
+    _, c = read_csv(path)
+    fig, ax = plt.subplots(figsize=(9, 5))
+    n, torque = c["speed[r/min]"], c["pull_out_torque[N·m]"]
+    ax.plot(n, torque, marker=".", lw=1)
+    unloaded = [i for i, flag in enumerate(c["slipped_before_load[1/0]"]) if flag > 0]
+    if unloaded:
+        ax.plot([n[i] for i in unloaded], [torque[i] for i in unloaded], "rx",
+                label="slipped before any load")
+        ax.legend(fontsize=8)
+    ax.set_xlabel("speed (r/min)")
+    ax.set_ylabel("pull-out torque (N·m)")
+    ax.grid(alpha=0.3)
+    ax.set_ylim(bottom=0)
+    ax.set_title(title or os.path.basename(path))
+    fig.tight_layout()
+    save(fig, out)
+
+
 def main(argv):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="kind", required=True)
@@ -134,11 +153,17 @@ def main(argv):
     sweep.add_argument("--labels", nargs="+")
     sweep.add_argument("--out", required=True)
     sweep.add_argument("--title")
+    pullout = sub.add_parser("pullout")
+    pullout.add_argument("csv")
+    pullout.add_argument("--out", required=True)
+    pullout.add_argument("--title")
     args = parser.parse_args(argv)
     if args.kind == "log" and args.versus == "speed":
         plot_versus_speed(args.csv, args.out, args.title)
     elif args.kind == "log":
         plot_log(args.csv, args.out, args.title)
+    elif args.kind == "pullout":
+        plot_pullout(args.csv, args.out, args.title)
     else:
         labels = args.labels or [os.path.basename(p) for p in args.csv]
         if len(labels) != len(args.csv):
