@@ -226,7 +226,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> plot_csvs, plot_labels;
   std::string plot_out, plot_title;
   CLI::App* plot_cmd = app.add_subcommand("plot", "PNG plot of run logs or sweep CSVs");
-  plot_cmd->add_option("csv", plot_csvs, "CSV written by run or sweep")
+  plot_cmd->add_option("csv", plot_csvs, "CSV written by run, sweep or pullout")
       ->required()
       ->check(CLI::ExistingFile);
   plot_cmd->add_option("--out", plot_out, "PNG")->required();
@@ -290,12 +290,14 @@ int main(int argc, char** argv) {
       std::ifstream first(plot_csvs[0]);
       std::string header;
       std::getline(first, header);
-      const bool sweep_csv = header.rfind("speed[r/min]", 0) == 0;
+      const bool pullout_csv = header.find("pull_out_torque") != std::string::npos;
+      const bool sweep_csv = !pullout_csv && header.rfind("speed[r/min]", 0) == 0;
       if (!sweep_csv && plot_csvs.size() != 1) {
-        throw std::invalid_argument("plot: give one run log, or any number of sweep CSVs");
+        throw std::invalid_argument(
+            "plot: give one run log or pull-out CSV, or any number of sweep CSVs");
       }
-      Plot(sweep_csv ? "sweep" : "log", plot_csvs, plot_labels, plot_out, plot_title,
-           versus_speed && !sweep_csv);
+      Plot(pullout_csv ? "pullout" : sweep_csv ? "sweep" : "log", plot_csvs, plot_labels,
+           plot_out, plot_title, versus_speed && !sweep_csv && !pullout_csv);
       fmt::print("wrote {}\n", plot_out);
       return 0;
     }

@@ -34,41 +34,54 @@ double ParseSpeed(const std::string& number, const std::string& unit, const std:
   throw std::invalid_argument(fmt::format("--speeds {}: unit must be rpm, r/min or rad/s", whole));
 }
 
-// The command of a run at constant speed: a ramp from rest at `acceleration`, then the speed.
-struct SpeedRamp {
-  SpeedRamp(double speed, double acceleration)
-      : duration(std::max(std::abs(speed) / acceleration, 1e-6)),
+// A run at constant speed on its own mjData: the stepper's command ramps from rest at
+// `acceleration` to `speed`, then holds it; Step() sets ctrl and steps.
+struct SpeedRun {
+  SpeedRun(const mjModel* model, const StepperActuator& stepper, double speed, double acceleration)
+      : m(model),
+        s(stepper),
+        data(mj_makeData(model)),
+        d(data.get()),
+        ramp(std::max(std::abs(speed) / acceleration, 1e-6)),
         profile(CommandProfile::Parse(
-            fmt::format("ramp(0rad/s, {:.17g}rad/s, {:.17g}s)", speed, duration))) {}
-  double duration;  // s
+            fmt::format("ramp(0rad/s, {:.17g}rad/s, {:.17g}s)", speed, ramp))) {
+    mj_forward(m, d);
+    theta_start = d->actuator_length[s.outadr];
+  }
+  void Step() {
+    d->ctrl[s.ctrladr] = profile.ControlForStep(d->time, m->opt.timestep, s.config.input,
+                                                theta_start);
+    mj_step(m, d);
+  }
+
+  const mjModel* m;
+  const StepperActuator& s;
+  DataPtr data;
+  mjData* d;
+  double ramp;  // s, the ramp's duration
   CommandProfile profile;
+  double theta_start = 0;  // rad
 };
 
 // One constant-speed run on its own mjData.
 SweepPoint RunOne(const mjModel* m, const StepperActuator& s, double speed, const SweepOptions& o) {
-  DataPtr data(mj_makeData(m));
-  mjData* d = data.get();
-  mj_forward(m, d);
-  const double theta_start = d->actuator_length[s.outadr];
-  const SpeedRamp ramp(speed, o.acceleration);
-  const CommandProfile& profile = ramp.profile;
+  SpeedRun run(m, s, speed, o.acceleration);
   const double h = m->opt.timestep;
-  const long start = std::lround((ramp.duration + o.settle) / h);
+  const long start = std::lround((run.ramp + o.settle) / h);
   const long steps = start + std::lround(o.measure / h);
   std::vector<double> error;
   error.reserve(steps - start);
   for (long k = 0; k < steps; ++k) {
-    const double t = d->time;
-    d->ctrl[s.ctrladr] = profile.ControlForStep(t, h, s.config.input, theta_start);
-    mj_step(m, d);
-    if (k >= start) error.push_back(d->actuator_velocity[s.outadr] - profile.Speed(t));
+    const double t = run.d->time;
+    run.Step();
+    if (k >= start) error.push_back(run.d->actuator_velocity[s.outadr] - run.profile.Speed(t));
   }
   SweepPoint p;
   p.speed = speed;
   p.rms_error = Rms(error);
   p.peak_to_peak_error = PeakToPeak(error);
   p.dominant_frequency = DominantFrequency(error, 1.0 / h, 5.0, 1000.0, 0.5);
-  p.lost_steps = d->sensordata[s.sensor_adr + SignalIndex("lost_steps")];
+  p.lost_steps = run.d->sensordata[s.sensor_adr + SignalIndex("lost_steps")];
   return p;
 }
 
@@ -85,14 +98,9 @@ bool Slipped(const mjData* d, const StepperActuator& s) {
 // until the first slip.
 PullOutPoint RunPullOut(const mjModel* m, const StepperActuator& s, double speed,
                         const PullOutOptions& o) {
-  DataPtr data(mj_makeData(m));
-  mjData* d = data.get();
-  mj_forward(m, d);
-  const double theta_start = d->actuator_length[s.outadr];
-  const SpeedRamp ramp(speed, o.acceleration);
-  const CommandProfile& profile = ramp.profile;
-  const double h = m->opt.timestep;
-  const double load_start = ramp.duration + o.settle;  // s
+  SpeedRun run(m, s, speed, o.acceleration);
+  mjData* d = run.d;
+  const double load_start = run.ramp + o.settle;  // s
   const int dof = m->jnt_dofadr[m->actuator_trnid[2 * s.actuator]];
   const double gear = m->actuator_gear[6 * s.outadr];
   const double against = speed < 0 ? 1.0 : -1.0;  // the load opposes the motion
@@ -106,8 +114,7 @@ PullOutPoint RunPullOut(const mjModel* m, const StepperActuator& s, double speed
       break;
     }
     d->qfrc_applied[dof] = against * gear * load;
-    d->ctrl[s.ctrladr] = profile.ControlForStep(t, h, s.config.input, theta_start);
-    mj_step(m, d);
+    run.Step();
     mj_forward(m, d);  // the signals of the new state
     if (Slipped(d, s)) {
       p.torque = load;

@@ -207,6 +207,10 @@ TEST(PullOut, WritesCsvAndPngAndNamesBadOptions) {
   while (std::getline(in, line)) ++rows;
   EXPECT_EQ(rows, 2);
   EXPECT_TRUE(IsPng(prefix.string() + ".png"));
+  const std::string replot = prefix.string() + "_replot.png";
+  r = RunCli("plot " + prefix.string() + ".csv --out " + replot);  // plot knows a pull-out CSV
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(IsPng(replot));
   r = RunCli("pullout " + kModel + " --speeds 50rpm --rate -1 --quiet --out " + prefix.string());
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.output, HasSubstr("rate = -1"));

@@ -85,6 +85,16 @@ def plot_log(path, out, title=None):
     save(fig, out)
 
 
+def finish(fig, ax, xlabel, ylabel, title, out):
+    """Labels, grid and title of a one-axes figure, then saves it."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3)
+    ax.set_title(title)
+    fig.tight_layout()
+    save(fig, out)
+
+
 def plot_versus_speed(path, out, title=None):
     """Every stepper's velocity error against its commanded speed, in one axes (ramps)."""
     header, c = read_csv(path)
@@ -93,13 +103,9 @@ def plot_versus_speed(path, out, title=None):
         speed = [w * RPM for w in c[f"{name}:omega_cmd[rad/s]"]]
         error = [e * RPM for e in c[f"{name}:velocity_error[rad/s]"]]
         ax.plot(speed, error, lw=0.5, label=name)
-    ax.set_xlabel("commanded speed (r/min)")
-    ax.set_ylabel("velocity error (r/min)")
-    ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title(title or os.path.basename(path))
-    fig.tight_layout()
-    save(fig, out)
+    finish(fig, ax, "commanded speed (r/min)", "velocity error (r/min)",
+           title or os.path.basename(path), out)
 
 
 def plot_sweep(paths, labels, out, title=None):
@@ -130,13 +136,8 @@ def plot_pullout(path, out, title=None):
         ax.plot([n[i] for i in unloaded], [torque[i] for i in unloaded], "rx",
                 label="slipped before any load")
         ax.legend(fontsize=8)
-    ax.set_xlabel("speed (r/min)")
-    ax.set_ylabel("pull-out torque (N·m)")
-    ax.grid(alpha=0.3)
     ax.set_ylim(bottom=0)
-    ax.set_title(title or os.path.basename(path))
-    fig.tight_layout()
-    save(fig, out)
+    finish(fig, ax, "speed (r/min)", "pull-out torque (N·m)", title or os.path.basename(path), out)
 
 
 def main(argv):
