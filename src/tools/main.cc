@@ -162,6 +162,10 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--allow-coarse", run.allow_coarse,
                     "run although a stepper's timestep is too coarse for its resonance "
                     "(ωn·h > 0.2, see info)");
+  std::vector<std::string> masses;
+  run_cmd->add_option("--mass", masses,
+                      "BODY=KG: a body's mass for this run, its inertia scaled with it, e.g. "
+                      "payload=2 in models/arm3.xml (repeatable)");
   std::vector<std::string> loads;
   run_cmd->add_option("--load", loads,
                       "ACTUATOR=TORQUE: the constant load torque τl (N·m, against positive "
@@ -257,6 +261,16 @@ int main(int argc, char** argv) {
           throw std::invalid_argument(fmt::format("--ctrl {}: expected ACTUATOR=PROFILE", c));
         }
         run.ctrl[c.substr(0, eq)] = c.substr(eq + 1);
+      }
+      for (const std::string& text : masses) {
+        const size_t eq = text.find('=');
+        double mass = 0;
+        if (eq == std::string::npos || eq == 0 ||
+            !mjstepper::ParseFiniteDouble(text.substr(eq + 1), &mass)) {
+          throw std::invalid_argument(
+              fmt::format("--mass {}: expected BODY=KG, KG a finite number", text));
+        }
+        run.masses[text.substr(0, eq)] = mass;
       }
       for (const std::string& l : loads) {
         const size_t eq = l.find('=');

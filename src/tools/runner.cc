@@ -26,6 +26,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   }
   StepperModel sm = LoadStepperModel(options.model, options.overrides);
   for (const auto& [name, torque] : options.loads) SetLoadTorque(sm.model.get(), name, torque);
+  for (const auto& [name, mass] : options.masses) SetBodyMass(sm.model.get(), name, mass);
   const mjModel* m = sm.model.get();
   for (const StepperActuator& s : sm.steppers) {
     const StepperResolution r = Resolution(m, s);

@@ -165,6 +165,24 @@ void SetLoadTorque(mjModel* m, const std::string& name, double torque) {
   bias[0] = -torque;
 }
 
+void SetBodyMass(mjModel* m, const std::string& name, double mass) {
+  const std::string what = fmt::format("--mass {}={}", name, mass);
+  const int body = mj_name2id(m, mjOBJ_BODY, name.c_str());
+  if (body <= 0) throw std::invalid_argument(fmt::format("{}: no body named '{}'", what, name));
+  if (!(mass > 0) || !std::isfinite(mass)) {
+    throw std::invalid_argument(fmt::format("{}: the mass must be finite and > 0 (kg)", what));
+  }
+  const double scale = m->body_mass[body] > 0 ? mass / m->body_mass[body] : 0;
+  if (!(scale > 0)) {
+    throw std::invalid_argument(
+        fmt::format("{}: body '{}' has no mass of its own to scale", what, name));
+  }
+  m->body_mass[body] = mass;
+  for (int k = 0; k < 3; ++k) m->body_inertia[3 * body + k] *= scale;
+  DataPtr d(mj_makeData(m));
+  mj_setConst(m, d.get());
+}
+
 StepperResolution Resolution(const mjModel* m, const StepperActuator& s) {
   StepperResolution r;
   r.stiffness = Drive(s.config).HoldingStiffness();

@@ -54,6 +54,12 @@ StepperModel LoadStepperModel(const std::string& path,
 /// not finite.
 void SetLoadTorque(mjModel* m, const std::string& name, double torque);
 
+/// Sets body `name`'s mass to `mass` (kg), scaling its inertia with it (same shape, same centre of
+/// mass), and recomputes MuJoCo's constants (mj_setConst): a payload changed for one run. Throws
+/// std::invalid_argument naming the body and value when there is no such body or mass is not
+/// finite and > 0.
+void SetBodyMass(mjModel* m, const std::string& name, double mass);
+
 /// What a stepper's holding resonance asks of the timestep, with the inertia it actually moves.
 struct StepperResolution {
   double stiffness = 0;         ///< T', N·m/rad (Drive::HoldingStiffness)

@@ -216,6 +216,32 @@ TEST(PullOut, WritesCsvAndPngAndNamesBadOptions) {
   EXPECT_THAT(r.output, HasSubstr("rate = -1"));
 }
 
+// The arm's pick move (base +0.5, shoulder −0.6, elbow +0.8 rad at the joints; the drives' own
+// trapezoids at 30 rad/s and 150 rad/s² on the rotors): with the default 0.5 kg payload no stepper
+// loses a step; with 2 kg the shoulder, which lifts it, cannot (gravity alone then asks 0.56 N·m
+// of its rotor, the pull-out torque at rest), and the counter says so. --mass changes the payload.
+TEST(Runner, ArmLosesStepsOnlyWithTooMuchPayload) {
+  const std::string arm = MJSTEPPER_SOURCE_DIR "/models/arm3.xml";
+  const auto csv = TempDir() / "arm.csv";
+  const std::string move =
+      " --duration 2 --quiet --ctrl 'base=constant(5rad)' --ctrl 'shoulder=constant(-12rad)' "
+      "--ctrl 'elbow=constant(8rad)' --log " + csv.string();
+  Result r = RunCli("run " + arm + move + " --mass payload=0.5");
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* joint : {"base", "shoulder", "elbow"}) {
+    EXPECT_EQ(LastValue(csv, std::string(joint) + ":lost_steps[full steps]"), 0.0) << joint;
+  }
+  // The move reached its targets: the rotors within a full step (π/100 rad) of them, less the sag.
+  EXPECT_NEAR(LastValue(csv, "shoulder:theta[rad]"), -12, 0.1);
+  r = RunCli("run " + arm + move + " --mass payload=2");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(LastValue(csv, "shoulder:lost_steps[full steps]"), 0.0);
+  EXPECT_GT(LastValue(csv, "shoulder:last_slip_time[s]"), 0.0);
+  r = RunCli("run " + arm + " --duration 0.01 --mass wrist=1");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("no body named 'wrist'"));
+}
+
 TEST(Runner, SetOverridesConfigForOneRun) {
   auto max_error = [](const std::string& extra) {
     const Result r = RunCli(
