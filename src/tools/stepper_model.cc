@@ -206,6 +206,16 @@ double HighestMode(const mjModel* m, const std::vector<StepperActuator>& stepper
       stiffness(m->jnt_dofadr[j], m->jnt_dofadr[j]) += m->jnt_stiffness[j];
     }
   }
+  // Fixed tendons (a belt, a cable): k·c·cᵀ, c the tendon's joint coefficients.
+  for (int t = 0; t < m->ntendon; ++t) {
+    if (!(m->tendon_stiffness[t] > 0)) continue;
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(nv);
+    for (int w = m->tendon_adr[t]; w < m->tendon_adr[t] + m->tendon_num[t]; ++w) {
+      const int joint = m->wrap_objid[w];
+      if (m->wrap_type[w] == mjWRAP_JOINT && joint >= 0) c(m->jnt_dofadr[joint]) += m->wrap_prm[w];
+    }
+    stiffness += m->tendon_stiffness[t] * c * c.transpose();
+  }
   for (const StepperActuator& s : steppers) {
     const int dof = m->jnt_dofadr[m->actuator_trnid[2 * s.actuator]];
     const double gear = m->actuator_gear[6 * m->actuator_outadr[s.actuator]];

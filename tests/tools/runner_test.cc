@@ -125,6 +125,12 @@ TEST(Runner, InfoGivesTheTwoMassModeThatSetsTheStep) {
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_THAT(r.output, AllOf(HasSubstr("81.76 Hz"), HasSubstr("highest natural frequency"),
                               HasSubstr("260.0 Hz: largest timestep 0.000122 s")));
+  // The belt axis: the belt is a tendon spring, k·c·cᵀ with c = (−r, 1); the closed form of rotor
+  // (T', J_r) and carriage (m) on k gives 31.4 and 143.7 Hz.
+  const Result belt = RunCli("info " MJSTEPPER_SOURCE_DIR "/models/belt_axis.xml");
+  ASSERT_EQ(belt.status, 0) << belt.output;
+  EXPECT_THAT(belt.output, HasSubstr("highest natural frequency (joint springs and the steppers' "
+                                     "T', M at qpos0) 143.7 Hz"));
 }
 
 TEST(Runner, InfoGivesNaturalFrequencyAndResonantSpeeds) {
