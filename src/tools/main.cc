@@ -190,6 +190,30 @@ int main(int argc, char** argv) {
   sweep_cmd->add_option("--set", sets, set_help);
   sweep_cmd->add_flag("--quiet", quiet, "no progress line");
 
+  MapOptions map;
+  std::string map_speeds, map_vary, map_out;
+  CLI::App* map_cmd = app.add_subcommand(
+      "map", "resonance map: the sweep over a grid of speed × one load parameter, on all cores");
+  map_cmd->add_option("model", map.sweep.model, "MJCF model")
+      ->required()
+      ->check(CLI::ExistingFile);
+  map_cmd->add_option("--speeds", map_speeds, "from:to:step or a,b,c with a unit")->required();
+  map_cmd
+      ->add_option("--vary", map_vary,
+                   "the load parameter and its values: stiffness:JOINT=a,b,c (N·m/rad or N/m) "
+                   "or mass:BODY=a,b,c (kg, inertia scaled with it)")
+      ->required();
+  map_cmd->add_option("--actuator", map.sweep.actuator, "the stepper (default: the only one)");
+  map_cmd->add_option("--out", map_out, "output prefix: writes PREFIX.csv and PREFIX.png")
+      ->required();
+  map_cmd->add_option("--settle", map.sweep.settle, "s after reaching speed before measuring")
+      ->default_val(map.sweep.settle);
+  map_cmd->add_option("--measure", map.sweep.measure, "s measured at each speed")
+      ->default_val(map.sweep.measure);
+  map_cmd->add_option("--threads", map.sweep.threads, "worker threads (default: one per core)");
+  map_cmd->add_option("--set", sets, set_help);
+  map_cmd->add_flag("--quiet", quiet, "no progress line");
+
   PullOutOptions pullout;
   std::string pullout_speeds, pullout_out;
   CLI::App* pullout_cmd = app.add_subcommand(
@@ -330,6 +354,35 @@ int main(int argc, char** argv) {
       fmt::print("  <config key=\"damping_detent\" value=\"{}\"/>\n", id.DampingDetent());
       fmt::print("  <config key=\"friction_compensation\" value=\"{:.5g}\"/>\n",
                  id.static_friction);
+      return 0;
+    }
+    if (*map_cmd) {
+      map.sweep.speeds = ParseSpeedList(map_speeds);
+      map.sweep.progress = !quiet;
+      for (const std::string& s : sets) map.sweep.overrides.push_back(ParseOverride(s));
+      const size_t eq = map_vary.find('=');
+      if (eq == std::string::npos || eq == 0) {
+        throw std::invalid_argument(
+            fmt::format("--vary {}: expected stiffness:JOINT=a,b,c or mass:BODY=a,b,c", map_vary));
+      }
+      map.parameter = map_vary.substr(0, eq);
+      std::stringstream list(map_vary.substr(eq + 1));
+      for (std::string item; std::getline(list, item, ',');) {
+        double value = 0;
+        if (!mjstepper::ParseFiniteDouble(item, &value)) {
+          throw std::invalid_argument(
+              fmt::format("--vary {}: \"{}\" is not a finite number", map_vary, item));
+        }
+        map.values.push_back(value);
+      }
+      const auto start = std::chrono::steady_clock::now();
+      const std::vector<MapPoint> points = Map(map, std::cerr);
+      WriteMapCsv(map_out + ".csv", map.parameter, points);
+      Plot("map", {map_out + ".csv"}, {}, map_out + ".png",
+           fmt::format("{}: velocity ripple over speed × {}", map.sweep.model, map.parameter));
+      fmt::print("{} runs in {:.1f} s\n  wrote {}.csv\n  wrote {}.png\n", points.size(),
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                 map_out, map_out);
       return 0;
     }
     if (*pullout_cmd) {

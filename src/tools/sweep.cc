@@ -246,6 +246,71 @@ void WritePullOutCsv(const std::string& path, const std::vector<PullOutPoint>& p
   csv.Commit();
 }
 
+namespace {
+
+// A copy of m with the parameter ("stiffness:JOINT" or "mass:BODY") set to value.
+ModelPtr WithParameter(const mjModel* m, const std::string& parameter, double value) {
+  ModelPtr copy(mj_copyModel(nullptr, m));
+  const size_t colon = parameter.find(':');
+  const std::string kind = parameter.substr(0, colon);
+  const std::string name = colon == std::string::npos ? "" : parameter.substr(colon + 1);
+  if (kind == "stiffness") {
+    const int joint = mj_name2id(copy.get(), mjOBJ_JOINT, name.c_str());
+    if (joint < 0) {
+      throw std::invalid_argument(fmt::format("--vary {}: no joint named '{}'", parameter, name));
+    }
+    if (!(value >= 0) || !std::isfinite(value)) {
+      throw std::invalid_argument(
+          fmt::format("--vary {}={}: a stiffness must be finite and >= 0", parameter, value));
+    }
+    copy->jnt_stiffness[joint] = value;
+  } else if (kind == "mass") {
+    SetBodyMass(copy.get(), name, value);
+  } else {
+    throw std::invalid_argument(fmt::format(
+        "--vary {}: expected stiffness:JOINT (N·m/rad or N/m) or mass:BODY (kg)", parameter));
+  }
+  return copy;
+}
+
+}  // namespace
+
+std::vector<MapPoint> Map(const MapOptions& o, std::ostream& progress) {
+  const SweepOptions& s = o.sweep;
+  if (o.values.empty()) throw std::invalid_argument("--vary: no value");
+  if (s.speeds.empty()) throw std::invalid_argument("--speeds: no speed to sweep");
+  const StepperModel sm = LoadStepperModel(s.model, s.overrides);
+  const StepperActuator& target = FindTarget(sm, s.actuator, s.model);
+  std::vector<ModelPtr> models;
+  for (double value : o.values) models.push_back(WithParameter(sm.model.get(), o.parameter, value));
+  const size_t n = s.speeds.size();
+  std::vector<MapPoint> points(o.values.size() * n);
+  ParallelFor(points.size(), s.threads, s.progress, "map", progress, [&](size_t i) {
+    points[i] = {.value = o.values[i / n],
+                 .point = RunOne(models[i / n].get(), target, s.speeds[i % n], s)};
+  });
+  return points;
+}
+
+void WriteMapCsv(const std::string& path, const std::string& parameter,
+                 const std::vector<MapPoint>& points) {
+  CsvWriter csv(path, {parameter, "speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
+                       "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]",
+                       "lost_steps[full steps]"});
+  for (const MapPoint& m : points) {
+    const SweepPoint& p = m.point;
+    const double row[] = {m.value,
+                          RadPerSecToRpm(p.speed),
+                          p.speed,
+                          RadPerSecToRpm(p.rms_error),
+                          RadPerSecToRpm(p.peak_to_peak_error),
+                          p.dominant_frequency,
+                          p.lost_steps};
+    csv.Row(row);
+  }
+  csv.Commit();
+}
+
 void WriteSweepCsv(const std::string& path, const std::vector<SweepPoint>& points) {
   CsvWriter csv(path, {"speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
                        "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]",

@@ -54,6 +54,21 @@ struct PullOutPoint {
   bool held_max = false;          ///< it held max_torque without slipping
 };
 
+/// `mjstepper map`: the sweep repeated over values of one load parameter, on all cores.
+struct MapOptions {
+  SweepOptions sweep;              ///< model, stepper, speeds, timing, threads
+  std::string parameter;           ///< "stiffness:JOINT" (N·m/rad or N/m) or "mass:BODY" (kg)
+  std::vector<double> values;      ///< of the parameter
+};
+
+struct MapPoint {
+  double value = 0;  ///< of the parameter
+  SweepPoint point;
+};
+
+/// Throws std::invalid_argument naming a bad parameter or value.
+std::vector<MapPoint> Map(const MapOptions& options, std::ostream& progress);
+
 /// "10:200:2.5rpm" (from:to:step, inclusive), "50,100,150rpm", or one speed; units rpm, r/min,
 /// rad/s. Throws std::invalid_argument quoting the text.
 std::vector<double> ParseSpeedList(const std::string& text);
@@ -69,6 +84,8 @@ std::vector<PullOutPoint> PullOut(const PullOutOptions& options, std::ostream& p
 /// CSVs with a header naming units, written to path.tmp and renamed.
 void WritePullOutCsv(const std::string& path, const std::vector<PullOutPoint>& points);
 void WriteSweepCsv(const std::string& path, const std::vector<SweepPoint>& points);
+void WriteMapCsv(const std::string& path, const std::string& parameter,
+                 const std::vector<MapPoint>& points);
 
 }  // namespace mjstepper::tools
 

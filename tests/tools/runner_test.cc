@@ -39,6 +39,16 @@ std::filesystem::path TempDir() {
   return dir;
 }
 
+// A CSV's header line and its number of data rows.
+std::pair<std::string, int> HeaderAndRows(const std::string& path) {
+  std::ifstream in(path);
+  std::string header, line;
+  std::getline(in, header);
+  int rows = 0;
+  while (std::getline(in, line)) ++rows;
+  return {header, rows};
+}
+
 TEST(Runner, RunWritesCsvWithUnitsAndNoTemporaryFile) {
   const auto csv = TempDir() / "ramp.csv";
   const Result r =
@@ -188,12 +198,8 @@ TEST(Sweep, WritesCsvAndPng) {
   const Result r = RunCli("sweep " + kModel + " --speeds 40,45,50rpm --measure 0.1 --quiet --out " +
                           prefix.string());
   ASSERT_EQ(r.status, 0) << r.output;
-  std::ifstream in(prefix.string() + ".csv");
-  std::string header, line;
-  std::getline(in, header);
+  const auto [header, rows] = HeaderAndRows(prefix.string() + ".csv");
   EXPECT_THAT(header, AllOf(HasSubstr("speed[r/min]"), HasSubstr("dominant_frequency[Hz]")));
-  int rows = 0;
-  while (std::getline(in, line)) ++rows;
   EXPECT_EQ(rows, 3);
   EXPECT_TRUE(IsPng(prefix.string() + ".png"));
 }
@@ -205,12 +211,8 @@ TEST(PullOut, WritesCsvAndPngAndNamesBadOptions) {
   Result r = RunCli("pullout " + kModel + " --speeds 50,600rpm --quiet --out " + prefix.string());
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("highest pull-out torque"));
-  std::ifstream in(prefix.string() + ".csv");
-  std::string header, line;
-  std::getline(in, header);
+  const auto [header, rows] = HeaderAndRows(prefix.string() + ".csv");
   EXPECT_THAT(header, AllOf(HasSubstr("speed[r/min]"), HasSubstr("pull_out_torque[N·m]")));
-  int rows = 0;
-  while (std::getline(in, line)) ++rows;
   EXPECT_EQ(rows, 2);
   EXPECT_TRUE(IsPng(prefix.string() + ".png"));
   const std::string replot = prefix.string() + "_replot.png";
@@ -246,6 +248,26 @@ TEST(Runner, ArmLosesStepsOnlyWithTooMuchPayload) {
   r = RunCli("run " + arm + " --duration 0.01 --mass wrist=1");
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.output, HasSubstr("no body named 'wrist'"));
+}
+
+TEST(Map, WritesCsvAndHeatMapAndNamesBadParameters) {
+  const std::string coupling = MJSTEPPER_SOURCE_DIR "/models/tsui_coupling.xml";
+  const auto prefix = TempDir() / "map";
+  Result r = RunCli("map " + coupling + " --speeds 40,45rpm --vary stiffness:coupling=20,50 " +
+                    "--settle 0.05 --measure 0.05 --quiet --out " + prefix.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto [header, rows] = HeaderAndRows(prefix.string() + ".csv");
+  EXPECT_THAT(header, AllOf(HasSubstr("stiffness:coupling"), HasSubstr("lost_steps")));
+  EXPECT_EQ(rows, 4);
+  EXPECT_TRUE(IsPng(prefix.string() + ".png"));
+  r = RunCli("map " + coupling + " --speeds 40rpm --vary stiffness:belt=20 --quiet --out " +
+             prefix.string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("no joint named 'belt'"));
+  r = RunCli("map " + coupling + " --speeds 40rpm --vary colour:load=1 --quiet --out " +
+             prefix.string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("--vary colour:load"));
 }
 
 TEST(Runner, SetOverridesConfigForOneRun) {

@@ -140,6 +140,30 @@ def plot_pullout(path, out, title=None):
     finish(fig, ax, "speed (r/min)", "pull-out torque (N·m)", title or os.path.basename(path), out)
 
 
+def plot_map(path, out, title=None):
+    """Heat map of the velocity ripple over speed (x) and the varied parameter (y); lost steps
+    marked."""
+    header, c = read_csv(path)
+    parameter = header[0]
+    values = sorted(set(c[parameter]))
+    speeds = sorted(set(c["speed[r/min]"]))
+    grid = [[0.0] * len(speeds) for _ in values]
+    lost = []
+    for v, n, ripple, steps in zip(c[parameter], c["speed[r/min]"],
+                                   c["velocity_error_peak_to_peak[r/min]"],
+                                   c["lost_steps[full steps]"]):
+        grid[values.index(v)][speeds.index(n)] = ripple
+        if steps != 0:
+            lost.append((n, v))
+    fig, ax = plt.subplots(figsize=(9, 5))
+    mesh = ax.pcolormesh(speeds, values, grid, shading="nearest", cmap="magma")
+    fig.colorbar(mesh, ax=ax, label="velocity error, peak-to-peak (r/min)")
+    if lost:
+        ax.plot([n for n, _ in lost], [v for _, v in lost], "c.", ms=4, label="lost steps")
+        ax.legend(fontsize=8, loc="upper right")
+    finish(fig, ax, "commanded speed (r/min)", parameter, title or os.path.basename(path), out)
+
+
 def main(argv):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="kind", required=True)
@@ -154,6 +178,10 @@ def main(argv):
     sweep.add_argument("--labels", nargs="+")
     sweep.add_argument("--out", required=True)
     sweep.add_argument("--title")
+    heat = sub.add_parser("map")
+    heat.add_argument("csv")
+    heat.add_argument("--out", required=True)
+    heat.add_argument("--title")
     pullout = sub.add_parser("pullout")
     pullout.add_argument("csv")
     pullout.add_argument("--out", required=True)
@@ -163,6 +191,8 @@ def main(argv):
         plot_versus_speed(args.csv, args.out, args.title)
     elif args.kind == "log":
         plot_log(args.csv, args.out, args.title)
+    elif args.kind == "map":
+        plot_map(args.csv, args.out, args.title)
     elif args.kind == "pullout":
         plot_pullout(args.csv, args.out, args.title)
     else:

@@ -1,8 +1,10 @@
-// `mjstepper pullout` (issue 9): the pull-out torque curve has the shape physics gives it.
+// `mjstepper pullout` and `mjstepper map` (issue 9): the pull-out torque curve and the resonance
+// map have the shapes physics gives them.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <sstream>
 #include <vector>
 
@@ -72,6 +74,48 @@ TEST(PullOut, CurveHasThePhysicalShape) {
   EXPECT_LT(at(RadPerSecToRpm(1.25 * corner)), 0.2 * low);
   for (double n : {n4, n2}) {
     EXPECT_LT(dip(n), std::min(at(n - 7.5), at(n + 7.5)) - 0.005) << "resonant speed " << n;
+  }
+}
+
+// The slow two-mass mode of the coupling model with coupling stiffness k, Hz (closed form, as in
+// tests/plugin/loads_test.cc; T' = 28.5 N·m/rad, J_r = 0.36e-4, J_l = 0.72e-4 kg·m²).
+double SlowMode(double k) {
+  const double jr = 0.36e-4, jl = 0.72e-4, t = kKm * kCurrent * kNr;
+  const double a = jr * jl, b = -(jr * k + jl * (t + k)), c = t * k;
+  return std::sqrt((-b - std::sqrt(b * b - 4 * a * c)) / (2 * a)) / (2 * std::numbers::pi);
+}
+
+// The resonance map's ridges follow SPEC §1's n_h = 60·fn/(h·Nr) with fn the two-mass slow mode,
+// as the coupling stiffness moves it: for k = 20, 50 and 120 N·m/rad, the peak velocity ripple
+// within ±20 % of n_2 and n_1 lies within 4 % (or one 2.5 r/min grid step) of them. The rigid
+// coupling's n_1 (fn = 81.8 Hz: 98 r/min) is 25 % off at k = 20: the two-mass model is needed.
+TEST(Map, RidgesFollowTheTwoMassResonantSpeeds) {
+  MapOptions o;
+  o.sweep.model = MJSTEPPER_SOURCE_DIR "/models/tsui_coupling.xml";
+  o.sweep.speeds = ParseSpeedList("30:100:2.5rpm");
+  o.sweep.settle = 0.3;
+  o.sweep.measure = 0.3;
+  o.sweep.progress = false;
+  o.parameter = "stiffness:coupling";
+  o.values = {20, 50, 120};
+  std::ostringstream progress;
+  const std::vector<MapPoint> points = Map(o, progress);
+  ASSERT_EQ(points.size(), o.values.size() * o.sweep.speeds.size());
+  for (double k : o.values) {
+    for (int h : {2, 1}) {
+      const double predicted = 60 * SlowMode(k) / (h * kNr);  // r/min
+      double peak_speed = 0, peak = -1;
+      for (const MapPoint& p : points) {
+        const double n = RadPerSecToRpm(p.point.speed);
+        if (p.value == k && std::abs(n - predicted) <= 0.2 * predicted &&
+            p.point.peak_to_peak_error > peak) {
+          peak = p.point.peak_to_peak_error;
+          peak_speed = n;
+        }
+      }
+      EXPECT_NEAR(peak_speed, predicted, std::max(0.04 * predicted, 2.5))
+          << "k = " << k << " N·m/rad, h = " << h;
+    }
   }
 }
 
