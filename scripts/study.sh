@@ -6,7 +6,9 @@
 #   renders/study_ramp.mp4               side-by-side video, 10× slow motion, with overlays
 #   renders/study_velocity_error.png     both velocity errors against commanded speed
 #   renders/study_ramp.png               both runs' signals against time
-# and prints a summary. See renders/README.md.
+# then the robot-arm joint study (models/arm3.xml: a pick move through the shoulder's resonance,
+# undamped and damped), which writes docs/studies/arm.md, renders/arm/velocity_error.png and
+# renders/arm/arm.mp4; and prints a summary. See renders/README.md.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bash "$here/scripts/build.sh" mjstepper_cli mjstepper
@@ -19,4 +21,5 @@ SECONDS=0
   --render renders/study_ramp.mp4 --camera front --size 1280x720 --fps 30 --playback 0.1
 ./build/mjstepper plot logs/study_ramp.csv --versus-speed --out renders/study_velocity_error.png \
   --title "Tsui ramp 0-200 r/min: velocity error, undamped vs all three harmonics damped"
+.venv/bin/python src/tools/python/study_arm.py
 echo "study done in ${SECONDS} s (after the build)"
