@@ -376,6 +376,25 @@ TEST(Drive, HoldingStiffnessIsEachControllersOwn) {
                    4.8e-5 * (20 + 400 * 100));
 }
 
+// microsteps: the commanded current vector moves on a grid of (π/2)/microsteps electrical rad,
+// as a real driver's resolution setting; 0 keeps the ideal sine.
+TEST(Drive, MicrostepsQuantizeTheCommandedCurrentVector) {
+  const double full_step = kTwoPi / (4 * 50);  // rad, rotor side
+  for (int microsteps : {0, 1, 2}) {
+    CurrentMicrostep unit;
+    unit.setpoint.microsteps = microsteps;
+    const Drive drive(TsuiConfig(unit, InputMode::kPosition));
+    for (double fraction : {0.3, 0.6, 1.2}) {
+      const PhaseVector i = drive.Rest(0.0, 0.0, fraction * full_step).current();
+      const double steps = std::arg(i) / (std::numbers::pi / 2);  // in full steps
+      const double expected =
+          microsteps == 0 ? fraction : std::round(fraction * microsteps) / microsteps;
+      EXPECT_NEAR(steps, expected, 1e-12) << microsteps << " microsteps, " << fraction;
+      EXPECT_NEAR(std::abs(i), 1.9, 1e-12);
+    }
+  }
+}
+
 TEST(Drive, StateRoundTripsThroughDoubles) {
   const Drive drive(TsuiConfig(kCurrent, InputMode::kPosition));
   DriveState s = drive.Rest(0.1, 0.2, 0.3);

@@ -119,5 +119,26 @@ TEST(Map, RidgesFollowTheTwoMassResonantSpeeds) {
   }
 }
 
+// Full stepping (microsteps = 1) excites the rotor at the step rate 4·Nr·n/60, which equals
+// fn = 141.6 Hz at n = 42.5 r/min: there the velocity ripple is several times the microstepped
+// motor's (the sine's residual excitation is the detent alone), while at 120 r/min, where the
+// step rate is 2.8·fn, both stay small.
+TEST(Sweep, FullSteppingRingsAtTheStepRateResonance) {
+  auto ripple = [](const char* microsteps, double rpm) {
+    SweepOptions o;
+    o.model = MJSTEPPER_SOURCE_DIR "/models/tsui_rigid.xml";
+    o.speeds = {RpmToRadPerSec(rpm)};
+    o.settle = 0.3;
+    o.measure = 0.3;
+    o.progress = false;
+    o.overrides = {{.actuator = "shaft", .key = "microsteps", .value = microsteps}};
+    std::ostringstream progress;
+    return RadPerSecToRpm(Sweep(o, progress)[0].peak_to_peak_error);
+  };
+  const double full = ripple("1", 42.5), smooth = ripple("0", 42.5);
+  EXPECT_GT(full, 5 * smooth) << full << " vs " << smooth << " r/min peak-to-peak";
+  EXPECT_GT(full, 3 * ripple("1", 120));
+}
+
 }  // namespace
 }  // namespace mjstepper::tools

@@ -9,6 +9,9 @@
 #ifndef MJSTEPPER_CORE_CONTROLLERS_CURRENT_MICROSTEP_H_
 #define MJSTEPPER_CORE_CONTROLLERS_CURRENT_MICROSTEP_H_
 
+#include <cmath>
+#include <numbers>
+
 #include "core/controllers/controller.h"
 #include "core/controllers/dq_current_loop.h"
 #include "core/controllers/harmonic_compensation.h"
@@ -19,22 +22,37 @@ inline constexpr AttributeSpec kAttrHoldCurrent{
     "hold_current", "real", "1.9", "A",
     "id* of `current_microstep` and `ideal_current`, T(12); > 0."};
 
+inline constexpr AttributeSpec kAttrMicrosteps{
+    "microsteps", "integer", "0", "per full step",
+    "The resolution of the commanded current vector, as a real driver's setting: 1 full step, "
+    "2 half step, ... 256; 0: continuous (the ideal sine of T(12)). ψ is rounded to multiples of "
+    "(π/2)/microsteps."};
+
 /// The T(12)-(13) setpoint shared by the PI drive and the ideal current source.
 struct MicrostepSetpoint {
   double hold_current = 1.9;     ///< I_hold, A, T(12)
   HarmonicCompensation damping;  ///< T(13); empty: no damping
+  int microsteps = 0;            ///< per full step; 0: continuous
 
+  /// The setpoint's electrical angle ψ: Nr·θcmd (S-12), rounded to the microstep grid.
+  double Angle(const DriveConstants& k, double theta_cmd) const {
+    const double psi = k.rotor_teeth * theta_cmd;
+    if (microsteps == 0) return psi;
+    const double step = std::numbers::pi / 2 / microsteps;  // electrical rad per microstep
+    return step * std::round(psi / step);
+  }
   /// id* + j·iq* at the commanded angle, T(12)-(13).
   PhaseVector Dq(const DriveConstants& k, double theta_cmd) const {
     return {hold_current, damping.Torque(k.rotor_teeth * theta_cmd) / k.torque_constant};
   }
-  /// The same in the phase frame (S-10 at ψ = Nr·θcmd).
+  /// The same in the phase frame (S-10 at ψ).
   PhaseVector Phase(const DriveConstants& k, double theta_cmd) const {
-    return FromDq(Dq(k, theta_cmd), k.rotor_teeth * theta_cmd);
+    return FromDq(Dq(k, theta_cmd), Angle(k, theta_cmd));
   }
   static MicrostepSetpoint FromAttributes(const AttributeSource& a, const MotorParams& motor) {
     return {.hold_current = a.Real(kAttrHoldCurrent, 1.9, AttributeSource::Rule::kPositive),
-            .damping = HarmonicCompensation::FromAttributes(a, motor)};
+            .damping = HarmonicCompensation::FromAttributes(a, motor),
+            .microsteps = a.Integer(kAttrMicrosteps, 0, 0, 4096)};
   }
 };
 
@@ -58,7 +76,8 @@ struct CurrentMicrostep {
   using Input = Sample;
 
   static std::vector<const AttributeSpec*> Attributes() {
-    return {&kAttrHoldCurrent, &kAttrKp, &kAttrKi, &kAttrDamping, &kAttrDampingDetent};
+    return {&kAttrHoldCurrent, &kAttrMicrosteps, &kAttrKp,
+            &kAttrKi,          &kAttrDamping,    &kAttrDampingDetent};
   }
   static CurrentMicrostep FromAttributes(const AttributeSource& a, const MotorParams& motor,
                                          const DriveConstants&) {
@@ -68,7 +87,7 @@ struct CurrentMicrostep {
 
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
                   State* s) const {
-    const double park_angle = k.rotor_teeth * in.command.theta;  // ψ = Nr·θcmd, S-12
+    const double park_angle = setpoint.Angle(k, in.command.theta);  // ψ = Nr·θcmd, S-12
     const PhaseVector park = UnitPhasor(park_angle);
     const PhaseVector target = setpoint.Dq(k, in.command.theta);
     PhaseVector integral(s->integral_d, s->integral_q);
@@ -109,7 +128,7 @@ struct IdealCurrent {
   using Input = MechanicalSample;
 
   static std::vector<const AttributeSpec*> Attributes() {
-    return {&kAttrHoldCurrent, &kAttrDamping, &kAttrDampingDetent};
+    return {&kAttrHoldCurrent, &kAttrMicrosteps, &kAttrDamping, &kAttrDampingDetent};
   }
   static IdealCurrent FromAttributes(const AttributeSource& a, const MotorParams& motor,
                                      const DriveConstants&) {
