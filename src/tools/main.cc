@@ -28,6 +28,22 @@
 namespace mjstepper::tools {
 namespace {
 
+// "NAME=NUMBER" items of a repeatable option as a map; throws naming the item and the form.
+std::map<std::string, double> NamedNumbers(const char* option, const char* form,
+                                           const std::vector<std::string>& items) {
+  std::map<std::string, double> out;
+  for (const std::string& item : items) {
+    const size_t eq = item.find('=');
+    double value = 0;
+    if (eq == std::string::npos || eq == 0 ||
+        !mjstepper::ParseFiniteDouble(item.substr(eq + 1), &value)) {
+      throw std::invalid_argument(fmt::format("{} {}: expected {}", option, item, form));
+    }
+    out[item.substr(0, eq)] = value;
+  }
+  return out;
+}
+
 int Info(const std::string& path) {
   const StepperModel sm = LoadStepperModel(path);
   const mjModel* m = sm.model.get();
@@ -286,26 +302,9 @@ int main(int argc, char** argv) {
         }
         run.ctrl[c.substr(0, eq)] = c.substr(eq + 1);
       }
-      for (const std::string& text : masses) {
-        const size_t eq = text.find('=');
-        double mass = 0;
-        if (eq == std::string::npos || eq == 0 ||
-            !mjstepper::ParseFiniteDouble(text.substr(eq + 1), &mass)) {
-          throw std::invalid_argument(
-              fmt::format("--mass {}: expected BODY=KG, KG a finite number", text));
-        }
-        run.masses[text.substr(0, eq)] = mass;
-      }
-      for (const std::string& l : loads) {
-        const size_t eq = l.find('=');
-        double torque = 0;
-        if (eq == std::string::npos || eq == 0 ||
-            !mjstepper::ParseFiniteDouble(l.substr(eq + 1), &torque)) {
-          throw std::invalid_argument(
-              fmt::format("--load {}: expected ACTUATOR=TORQUE, TORQUE a finite number in N·m", l));
-        }
-        run.loads[l.substr(0, eq)] = torque;
-      }
+      run.masses = NamedNumbers("--mass", "BODY=KG, KG a finite number", masses);
+      run.loads =
+          NamedNumbers("--load", "ACTUATOR=TORQUE, TORQUE a finite number in N·m", loads);
       run.progress = !quiet;
       for (const std::string& s : sets) run.overrides.push_back(ParseOverride(s));
       if (std::sscanf(size.c_str(), "%dx%d", &run.render.renderer.width,

@@ -168,6 +168,18 @@ void ParallelFor(size_t n, int threads, bool show_progress, const char* what,
   if (show_progress) fmt::print(progress, "\r  {0}: {1}/{1} speeds ({2} threads)\n", what, n, workers);
 }
 
+// run(model, stepper, speed, options) for each of the options' speeds, on all cores.
+template <class Point, class Options, class Run>
+std::vector<Point> OverSpeeds(const Options& o, const char* what, std::ostream& progress, Run run) {
+  const StepperModel sm = LoadStepperModel(o.model, o.overrides);
+  const StepperActuator& target = FindTarget(sm, o.actuator, o.model);
+  std::vector<Point> points(o.speeds.size());
+  ParallelFor(o.speeds.size(), o.threads, o.progress, what, progress, [&](size_t i) {
+    points[i] = run(sm.model.get(), target, o.speeds[i], o);
+  });
+  return points;
+}
+
 }  // namespace
 
 std::vector<double> ParseSpeedList(const std::string& text) {
@@ -208,13 +220,7 @@ std::vector<SweepPoint> Sweep(const SweepOptions& o, std::ostream& progress) {
         "sweep: settle = {} s (>= 0), measure = {} s (> 0), acceleration = {} rad/s² (> 0)",
         o.settle, o.measure, o.acceleration));
   }
-  const StepperModel sm = LoadStepperModel(o.model, o.overrides);
-  const StepperActuator& target = FindTarget(sm, o.actuator, o.model);
-  std::vector<SweepPoint> points(o.speeds.size());
-  ParallelFor(o.speeds.size(), o.threads, o.progress, "sweep", progress, [&](size_t i) {
-    points[i] = RunOne(sm.model.get(), target, o.speeds[i], o);
-  });
-  return points;
+  return OverSpeeds<SweepPoint>(o, "sweep", progress, RunOne);
 }
 
 std::vector<PullOutPoint> PullOut(const PullOutOptions& o, std::ostream& progress) {
@@ -226,13 +232,7 @@ std::vector<PullOutPoint> PullOut(const PullOutOptions& o, std::ostream& progres
         "max torque = {} N·m (finite, > 0)",
         o.settle, o.acceleration, o.rate, o.max_torque));
   }
-  const StepperModel sm = LoadStepperModel(o.model, o.overrides);
-  const StepperActuator& target = FindTarget(sm, o.actuator, o.model);
-  std::vector<PullOutPoint> points(o.speeds.size());
-  ParallelFor(o.speeds.size(), o.threads, o.progress, "pullout", progress, [&](size_t i) {
-    points[i] = RunPullOut(sm.model.get(), target, o.speeds[i], o);
-  });
-  return points;
+  return OverSpeeds<PullOutPoint>(o, "pullout", progress, RunPullOut);
 }
 
 void WritePullOutCsv(const std::string& path, const std::vector<PullOutPoint>& points) {
