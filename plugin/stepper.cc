@@ -82,6 +82,11 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
     mju_warning("%s", fmt::format("mjstepper: {}: {}", subject, what).c_str());
     return nullptr;
   };
+  // About one of the instance's actuators: named once, whether the instance is the actuator's own
+  // (its subject already names it) or shared.
+  auto fail_for = [&](const std::string& actuator, const std::string& what) {
+    return fail(subject == actuator ? what : actuator + ": " + what);
+  };
   auto read = [m, instance](const char* name) { return mj_getPluginConfig(m, instance, name); };
 
   std::unique_ptr<Stepper> stepper(new Stepper());
@@ -129,10 +134,10 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
     const int joint = m->actuator_trnid[2 * a];
     if (m->actuator_trntype[a] != mjTRN_JOINT || joint < 0 ||
         (m->jnt_type[joint] != mjJNT_HINGE && m->jnt_type[joint] != mjJNT_SLIDE)) {
-      return fail(actuator + ": the stepper needs a joint transmission on a hinge or slide joint");
+      return fail_for(actuator, "the stepper needs a joint transmission on a hinge or slide joint");
     }
     if (m->actuator_ctrlnum[a] != 1 || m->actuator_outnum[a] != 1) {
-      return fail(actuator + ": the stepper takes one control and drives one output");
+      return fail_for(actuator, "the stepper takes one control and drives one output");
     }
     stepper->actuators_.push_back({.id = a,
                                    .ctrladr = m->actuator_ctrladr[a],
@@ -142,11 +147,11 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
     // The rotor's inertia is MuJoCo's business (armature); the preset knows its value.
     const double rotor_inertia = stepper->drive_->config().motor.rotor_inertia;  // kg·m²
     if (m->actuator_armature[a] < rotor_inertia * (1 - 1e-9)) {
-      return fail(fmt::format(
-          "{}: the motor's rotor inertia J = {:g} kg·m² is not in the model (armature = {:g}); "
+      return fail_for(actuator, fmt::format(
+          "the motor's rotor inertia J = {:g} kg·m² is not in the model (armature = {:g}); "
           "add armature=\"{:g}\" to the actuator (MuJoCo reflects it through gear²), or set "
           "rotor_inertia=\"0\" if the model carries the rotor itself",
-          actuator, rotor_inertia, m->actuator_armature[a], rotor_inertia));
+          rotor_inertia, m->actuator_armature[a], rotor_inertia));
     }
     // The step the rotor alone needs (a load only lowers ωn): warn, as MuJoCo warns, if coarser.
     const double inertia = std::max(m->actuator_armature[a], rotor_inertia);

@@ -1,6 +1,7 @@
 #include "stepper_model.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Dense>
 
@@ -11,6 +12,7 @@
 #include <cstdlib>
 #include <mutex>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <variant>
 #include <vector>
@@ -36,9 +38,27 @@ bool IsStepper(const mjModel* m, int actuator) {
   return instance >= 0 && m->plugin[instance] == StepperSlot();
 }
 
+// MuJoCo's compile error, each line once: the compiler may initialise the plugin more than once
+// and collects the warnings of every attempt, the last one cut short by its buffer (a line that
+// begins an earlier one is that one again).
+std::string DistinctLines(const std::string& text) {
+  std::vector<std::string> kept;
+  std::stringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    const bool repeated = std::any_of(kept.begin(), kept.end(), [&](const std::string& earlier) {
+      return earlier.rfind(line, 0) == 0;
+    });
+    if (!repeated) kept.push_back(line);
+  }
+  return fmt::format("{}", fmt::join(kept, "\n"));
+}
+
 ModelPtr Compile(mjSpec* spec, const mjVFS* vfs) {
   ModelPtr model(mj_compile(spec, vfs));
-  if (!model) throw std::runtime_error(fmt::format("compile error: {}", mjs_getError(spec)));
+  if (!model) {
+    throw std::runtime_error(
+        fmt::format("compile error: {}", DistinctLines(mjs_getError(spec))));
+  }
   return model;
 }
 

@@ -270,6 +270,25 @@ TEST(Map, WritesCsvAndHeatMapAndNamesBadParameters) {
   EXPECT_THAT(r.output, HasSubstr("--vary colour:load"));
 }
 
+// A load error is said once and names its actuator once (the compiler initialises the plugin
+// more than once and collects every attempt's message; the actuator's own instance is named by
+// the actuator).
+TEST(Runner, LoadErrorIsPrintedOnce) {
+  std::ifstream in(kModel);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string xml = text.str();
+  xml.replace(xml.find("armature=\"0.36e-4\""), 18, "");
+  const auto path = TempDir() / "no_armature.xml";
+  std::ofstream(path) << xml;
+  const Result r = RunCli("run " + path.string() + " --duration 0.01");
+  EXPECT_NE(r.status, 0);
+  const std::string message = "add armature=\"3.6e-05\"";
+  ASSERT_NE(r.output.find(message), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find(message), r.output.rfind(message)) << r.output;
+  EXPECT_EQ(r.output.find("actuator 'shaft' (id 0): actuator"), std::string::npos) << r.output;
+}
+
 TEST(Runner, SetOverridesConfigForOneRun) {
   auto max_error = [](const std::string& extra) {
     const Result r = RunCli(
