@@ -247,6 +247,30 @@ std::string AttributeTableMarkdown() {
   return out;
 }
 
+std::string PresetTableMarkdown() {
+  std::string out =
+      "| `motor` | what | Nr | R (Ω) | L (H) | Km (N·m/A) | J (kg·m²) | B (N·m·s/rad) | Fs (N·m) | "
+      "rated current (A) | holding torque √2·Km·I (N·m) | detent harmonics | τl (N·m) |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const std::string& name : PresetNames()) {
+    const Preset preset = *FindPreset(name);
+    const MotorParams& m = preset.motor;
+    std::vector<std::string> detent;
+    for (const DetentHarmonic& h : m.detent) {
+      detent.push_back(fmt::format("h {}: {:g} N·m", h.order, h.amplitude));
+    }
+    out += fmt::format(
+        "| `{}` | {} | {} | {:g} | {:g} | {:g} | {:g} | {:g} | {:g} | {:g} | {:.3g} | {} | {:g} |\n",
+                       name, preset.description, m.rotor_teeth, m.resistance,
+                       m.inductance, m.torque_constant, m.rotor_inertia, m.viscous_damping,
+                       m.static_friction, m.rated_current,
+                       std::sqrt(2.0) * m.torque_constant * m.rated_current,
+                       detent.empty() ? "none" : fmt::format("{}", fmt::join(detent, ", ")),
+                       m.load_torque);
+  }
+  return out;
+}
+
 std::string DriveListMarkdown() {
   std::string out;
   ForEachControllerType(

@@ -39,6 +39,9 @@ std::string AttributeTableMarkdown();
 /// The README's list of drives (Markdown), made from the controller registry.
 std::string DriveListMarkdown();
 
+/// The README's table of motor presets (Markdown), made from core/presets.cc.
+std::string PresetTableMarkdown();
+
 }  // namespace mjstepper::plugin
 
 #endif  // MJSTEPPER_PLUGIN_CONFIG_H_

@@ -102,6 +102,7 @@ int Info(const std::string& path) {
 // The README tables, made from the tables the parser and the sensors use.
 int WriteTables(const std::string& path) {
   const std::vector<std::pair<std::string, std::string>> sections = {
+      {"presets", plugin::PresetTableMarkdown()},
       {"drives", plugin::DriveListMarkdown()},
       {"attributes", plugin::AttributeTableMarkdown()},
       {"signals", SignalTableMarkdown()}};

@@ -138,6 +138,7 @@ TEST(Config, ReadmeTablesAreTheTables) {
   EXPECT_THAT(text.str(), HasSubstr(AttributeTableMarkdown()));
   EXPECT_THAT(text.str(), HasSubstr(SignalTableMarkdown()));
   EXPECT_THAT(text.str(), HasSubstr(DriveListMarkdown()));
+  EXPECT_THAT(text.str(), HasSubstr(PresetTableMarkdown()));
   for (const char* name : AttributeNames()) {
     EXPECT_THAT(text.str(), HasSubstr(std::string("| `") + name + "`")) << name;
   }
