@@ -176,6 +176,9 @@ int main(int argc, char** argv) {
       "ACTUATOR.KEY=VALUE: change a stepper's <config> for this run, e.g. "
       "shaft.damping=all or shaft.drive=servo (repeatable)";
   run_cmd->add_option("--set", sets, set_help);
+  run_cmd->add_option("--keyframe", run.keyframe,
+                      "start from the model's keyframe of this name (the drives start at rest on "
+                      "their rotors there)");
   run_cmd->add_flag("--allow-coarse", run.allow_coarse,
                     "run although a stepper's timestep is too coarse for its resonance "
                     "(ωn·h > 0.2, see info)");

@@ -50,6 +50,22 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   }
   DataPtr data(mj_makeData(m));
   mjData* d = data.get();
+  if (!options.keyframe.empty()) {
+    const int key = mj_name2id(m, mjOBJ_KEY, options.keyframe.c_str());
+    if (key < 0) {
+      std::string names;
+      for (int k = 0; k < m->nkey; ++k) {
+        const char* name = mj_id2name(m, mjOBJ_KEY, k);
+        names += fmt::format("{}'{}'", names.empty() ? "" : ", ", name ? name : "");
+      }
+      throw std::invalid_argument(fmt::format("--keyframe {}: no keyframe of that name in {} ({})",
+                                              options.keyframe, options.model,
+                                              names.empty() ? "it has none" : names));
+    }
+    // qpos, qvel, act, ctrl and time from the keyframe; the drives then start at rest on their
+    // rotors there (plugin state is not in keyframes: SPEC §6).
+    mj_resetDataKeyframe(m, d, key);
+  }
   mj_forward(m, d);
 
   // One profile per stepper: the user's, or hold still (speed 0 / the start angle).
@@ -99,11 +115,13 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   std::vector<double> row;
   const auto start = std::chrono::steady_clock::now();
   auto last_report = start;
+  const double t_begin = d->time;  // a keyframe may start the clock anywhere; profiles start here
   for (long k = 0; k < steps; ++k) {
     const double t = d->time;
     for (size_t i = 0; i < sm.steppers.size(); ++i) {
       const StepperActuator& s = sm.steppers[i];
-      d->ctrl[s.ctrladr] = profiles[i].ControlForStep(t, h, s.config.input, theta_start[i]);
+      d->ctrl[s.ctrladr] =
+          profiles[i].ControlForStep(t - t_begin, h, s.config.input, theta_start[i]);
     }
     static const int kLoadAngle = SignalIndex("load_angle");
     static const int kLostSteps = SignalIndex("lost_steps");
@@ -118,7 +136,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
       const double* signals = d->sensordata + s.sensor_adr;
       // With the drive's own motion profile, ctrl is a target and the command is the drive's.
       static const int kOmegaCmd = SignalIndex("omega_cmd");
-      const double omega_cmd = s.config.profile.kind == ProfileKind::kNone ? profiles[i].Speed(t)
+      const double omega_cmd = s.config.profile.kind == ProfileKind::kNone ? profiles[i].Speed(t - t_begin)
                                                                            : signals[kOmegaCmd];
       const double error = omega - omega_cmd;
       StepperSummary& sum = result.steppers[i];

@@ -289,6 +289,29 @@ TEST(Runner, LoadErrorIsPrintedOnce) {
   EXPECT_EQ(r.output.find("actuator 'shaft' (id 0): actuator"), std::string::npos) << r.output;
 }
 
+// --keyframe starts the run from a keyframe (here the rotor turned to 1 rad at t = 2 s): the
+// drive starts at rest on the rotor there and holds it; the profiles start with the run.
+TEST(Runner, KeyframeSetsTheStart) {
+  std::ifstream in(kModel);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string xml = text.str();
+  xml.replace(xml.rfind("</mujoco>"), 9,
+              R"(<keyframe><key name="turned" time="2" qpos="1"/></keyframe></mujoco>)");
+  const auto path = TempDir() / "keyframe.xml";
+  std::ofstream(path) << xml;
+  const auto csv = TempDir() / "keyframe.csv";
+  Result r = RunCli("run " + path.string() + " --keyframe turned --duration 0.05 --quiet --log " +
+                    csv.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NEAR(LastValue(csv, "shaft:theta[rad]"), 1.0, 1e-3);  // held there (sag < 1e-3 rad)
+  EXPECT_NEAR(LastValue(csv, "time[s]"), 2.05, 1e-3);
+  EXPECT_EQ(LastValue(csv, "shaft:lost_steps[full steps]"), 0.0);
+  r = RunCli("run " + path.string() + " --keyframe home --duration 0.05");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, AllOf(HasSubstr("--keyframe home"), HasSubstr("'turned'")));
+}
+
 TEST(Runner, SetOverridesConfigForOneRun) {
   auto max_error = [](const std::string& extra) {
     const Result r = RunCli(
