@@ -248,6 +248,8 @@ std::string AttributeTableMarkdown() {
 }
 
 std::string PresetTableMarkdown() {
+  constexpr const char* kRow =
+      "| `{}` | {} | {} | {:g} | {:g} | {:g} | {:g} | {:g} | {:g} | {:g} | {:.3g} | {} | {:g} |\n";
   std::string out =
       "| `motor` | what | Nr | R (Ω) | L (H) | Km (N·m/A) | J (kg·m²) | B (N·m·s/rad) | Fs (N·m) | "
       "rated current (A) | holding torque √2·Km·I (N·m) | detent harmonics | τl (N·m) |\n"
@@ -259,8 +261,7 @@ std::string PresetTableMarkdown() {
     for (const DetentHarmonic& h : m.detent) {
       detent.push_back(fmt::format("h {}: {:g} N·m", h.order, h.amplitude));
     }
-    out += fmt::format(
-        "| `{}` | {} | {} | {:g} | {:g} | {:g} | {:g} | {:g} | {:g} | {:g} | {:.3g} | {} | {:g} |\n",
+    out += fmt::format(fmt::runtime(kRow),
                        name, preset.description, m.rotor_teeth, m.resistance,
                        m.inductance, m.torque_constant, m.rotor_inertia, m.viscous_damping,
                        m.static_friction, m.rated_current,

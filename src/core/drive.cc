@@ -388,8 +388,9 @@ double Drive::RestCurrentMagnitude() const {
 
 double Drive::HoldingStiffness() const {
   const PhaseVector rest_current = Rest(0.0, 0.0, 0.0).current();
-  return std::visit([&](const auto& unit) { return unit.HoldingStiffness(constants_, rest_current); },
-                    config_.controller);
+  return std::visit(
+      [&](const auto& unit) { return unit.HoldingStiffness(constants_, rest_current); },
+      config_.controller);
 }
 
 }  // namespace mjstepper

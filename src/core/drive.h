@@ -106,7 +106,7 @@ struct DriveCoreState {
   double energy_mechanical = 0;  ///< J, ∫τm·ω dt
   double rotor_cos = 0;          ///< cos(Nr·θ): e^{jx} at `theta`, kept with it so that a step and
   double rotor_sin = 0;          ///< sin(Nr·θ)  the torque after it share one sincos (S-1)
-  double slip_cell = 0;          ///< k of the electrical cycle δ ≈ 2π·k the rotor sits in (SlipCell)
+  double slip_cell = 0;          ///< k of the cycle δ ≈ 2π·k the rotor sits in (SlipCell)
   double slip_origin = 0;        ///< slip_cell at the start: slips = slip_cell − slip_origin
   double last_slip_time = -1;    ///< s, end of the step of the last slip; −1: none yet
 

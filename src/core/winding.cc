@@ -112,9 +112,9 @@ PhaseVector AdvanceInterval(const MotorParams& p, const WindingKernel& k, PhaseV
                                2 * (B * std::conj(C) * k.int_jw_a).real();
   energy->copper = p.resistance * norm_integral;
   // ∫τm·ω = Km·ω·∫Im(e^{−jx(t)}·i(t)), e^{−jx(t)} = e^{−jx0}·e^{−jΩt}   (S-4)
-  energy->mechanical = p.torque_constant * k.omega *
-                       (std::conj(phasor0) * (A * std::conj(k.int_jw) + B * h + C * std::conj(k.int_jw_a)))
-                           .imag();
+  const PhaseVector rotor_frame_integral =
+      std::conj(phasor0) * (A * std::conj(k.int_jw) + B * h + C * std::conj(k.int_jw_a));
+  energy->mechanical = p.torque_constant * k.omega * rotor_frame_integral.imag();
   return current;
 }
 

@@ -71,8 +71,9 @@ int Info(const std::string& path) {
       fmt::print("    no holding stiffness: something else must hold or turn the shaft\n");
       continue;
     }
-    fmt::print("    largest timestep that resolves it: {:.3g} s (ωn·h <= {}); the model's: {:g} s\n",
-               r.largest_timestep, kMaxOmegaTimesStep, h);
+    fmt::print(
+        "    largest timestep that resolves it: {:.3g} s (ωn·h <= {}); the model's: {:g} s\n",
+        r.largest_timestep, kMaxOmegaTimesStep, h);
     for (const DetentHarmonic& dh : p.detent) {
       fmt::print("    detent h = {}: resonance at {:.1f} r/min (h·Nr·n/60 = fn)\n", dh.order,
                  60.0 * fn / (dh.order * p.rotor_teeth));

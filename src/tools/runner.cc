@@ -136,8 +136,9 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
       const double* signals = d->sensordata + s.sensor_adr;
       // With the drive's own motion profile, ctrl is a target and the command is the drive's.
       static const int kOmegaCmd = SignalIndex("omega_cmd");
-      const double omega_cmd = s.config.profile.kind == ProfileKind::kNone ? profiles[i].Speed(t - t_begin)
-                                                                           : signals[kOmegaCmd];
+      const double omega_cmd = s.config.profile.kind == ProfileKind::kNone
+                                   ? profiles[i].Speed(t - t_begin)
+                                   : signals[kOmegaCmd];
       const double error = omega - omega_cmd;
       StepperSummary& sum = result.steppers[i];
       sum_sq[i] += error * error;

@@ -71,8 +71,9 @@ StepperResolution Resolution(const mjModel* m, const StepperActuator& s);
 
 /// The model's highest natural frequency, rad/s, linearised at qpos0: the generalised eigenvalues
 /// of K·v = ω²·M·v, K holding the joints' springs, the fixed tendons' springs (a belt: k·c·cᵀ)
-/// and each stepper's holding stiffness T'·gear² on its dof (contacts and constraints left out). A compliant coupling's stiff mode lies above
-/// either part's own frequency, so this, not a stepper's ωn alone, sets the step.
+/// and each stepper's holding stiffness T'·gear² on its dof (contacts and constraints left out).
+/// A compliant coupling's stiff mode lies above either part's own frequency, so this, not a
+/// stepper's ωn alone, sets the step.
 double HighestMode(const mjModel* m, const std::vector<StepperActuator>& steppers);
 
 /// Rotor-side inertia seen by the actuator at qpos0, kg·m²: M[dof, dof] / gear² (armature

@@ -165,7 +165,9 @@ void ParallelFor(size_t n, int threads, bool show_progress, const char* what,
       std::this_thread::sleep_for(std::chrono::milliseconds(250));
     }
   }
-  if (show_progress) fmt::print(progress, "\r  {0}: {1}/{1} speeds ({2} threads)\n", what, n, workers);
+  if (show_progress) {
+    fmt::print(progress, "\r  {0}: {1}/{1} speeds ({2} threads)\n", what, n, workers);
+  }
 }
 
 // run(model, stepper, speed, options) for each of the options' speeds, on all cores.

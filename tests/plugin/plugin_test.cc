@@ -285,10 +285,13 @@ TEST(StepperPlugin, StaticFrictionSticksBelowFsAndSlipsAbove) {
 // rotor needs to run from the unstable equilibrium δ = π/2 to the counting threshold 5π/4 (a few
 // ms at fn = 141 Hz: < 0.5 %), and the PI loop's current error at that speed (< 1 %).
 TEST(StepperPlugin, HoldingRotorSlipsAtPullOutAndCountsEachCycle) {
-  const std::string actuator = TsuiActuator(
-      "m1", "j1", Config("input", "position") + Config("detent", "none") + Config("hold_current", "1.9"));
-  const ModelPtr m = LoadModel(RotorModel(
-      actuator, "", R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  const std::string actuator =
+      TsuiActuator("m1", "j1",
+                   Config("input", "position") + Config("detent", "none") +
+                       Config("hold_current", "1.9"));
+  const std::string sensor =
+      R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)";
+  const ModelPtr m = LoadModel(RotorModel(actuator, "", sensor));
   ASSERT_TRUE(m);
   const DataPtr d(mj_makeData(m.get()));
   const double rate = 0.25;  // N·m/s

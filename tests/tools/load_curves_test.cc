@@ -34,8 +34,10 @@ double CornerSpeed() {
 // - near Km·I − Fs at low speed: within 0.023 N·m (4 % of Km·I), the detent's three harmonics
 //   (0.031 N·m together) moving the weakest point of the cycle and the load ramp's lag;
 // - still above 80 % of the low-speed value at 60 % of the back-EMF corner speed (1217 r/min),
-//   collapsed below 20 % at 125 % of it: the bus voltage runs out there, as the closed form says. (Between the two the PI loop's finite bandwidth already costs torque, and the curve has
-//   a mid-band dip near 900 r/min, on the rigid rotor too: not in the closed form.)
+//   collapsed below 20 % at 125 % of it: the bus voltage runs out there, as the closed form says.
+//   (Between the two the PI loop's finite bandwidth already costs torque, and a fast load ramp
+//   finds a dip near 900 r/min, where the unloaded drive breaks into a 200 Hz oscillation; a slow
+//   ramp does not: not in the closed form, and not tested.)
 // - dips at the resonant speeds of the slow mode, n_h = 60·f1/(h·Nr) for the detent's harmonics
 //   h = 4 and 2 (21.7 and 43.3 r/min): the curve there lies 0.005 N·m (about 1 %) or more below
 //   both neighbours 7.5 r/min away.
