@@ -30,8 +30,11 @@ venv="$here/.venv"
 stamp="$venv/.requirements.sha256"
 want=$(sha256sum "$here/requirements.txt" | cut -d' ' -f1)
 if [[ ! -x "$venv/bin/python" || ! -f "$stamp" || "$(cat "$stamp")" != "$want" ]]; then
-  echo "bootstrap: installing requirements.txt into $venv"
-  [[ -x "$venv/bin/python" ]] || python3 -m venv "$venv"
+  echo "bootstrap: installing requirements.txt into a new $venv"
+  # Made afresh: upgrading in place can break a package that changed shape (mujoco 3.x was one
+  # wheel; 4.0 is mujoco + mujoco-core, and pip over 3.x leaves the bindings half removed).
+  rm -rf "$venv"
+  python3 -m venv "$venv"
   "$venv/bin/python" -m pip install -q -r "$here/requirements.txt" 2>&1 | grep -v "^WARNING: Location" || true
   "$venv/bin/python" -c 'import mujoco, matplotlib' && echo "$want" > "$stamp"
 fi
