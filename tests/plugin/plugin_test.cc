@@ -232,13 +232,22 @@ TEST(StepperPlugin, SignalSensorReportsDriveState) {
 }
 
 // With gear g the rotor angle is g·q (actuator_length): a velocity command ω turns the joint at
-// ω/g, and the reflected armature is the user's business (armature is set on the joint side).
+// ω/g. The actuator's armature and damping are the rotor's, J and B: MuJoCo reflects them to the
+// joint as g²·J and g²·B.
 TEST(StepperPlugin, GearScalesRotorToJoint) {
   const std::string actuator =
-      R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" gear="4" armature="5.76e-4" damping="0.016">)" +
+      R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" gear="4" armature="0.36e-4" )"
+      R"(damping="0.001">)" +
       Config("input", "velocity") + "</plugin>";
   const ModelPtr m = LoadModel(RotorModel(actuator));
   ASSERT_TRUE(m);
+  {
+    const DataPtr d(mj_makeData(m.get()));
+    d->qvel[0] = 1;
+    mj_forward(m.get(), d.get());
+    EXPECT_NEAR(d->M[0], 16 * 0.36e-4 + 1e-9, 1e-12);  // g²·J plus the body's own 1e-9
+    EXPECT_NEAR(d->qfrc_passive[0], -16 * 0.001, 1e-12);
+  }
   const DataPtr d(mj_makeData(m.get()));
   Step(m.get(), d.get(), 4000);
   const double q0 = d->qpos[0];
