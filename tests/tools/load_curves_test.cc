@@ -142,5 +142,32 @@ TEST(Sweep, FullSteppingRingsAtTheStepRateResonance) {
   EXPECT_GT(full, 3 * ripple("1", 120));
 }
 
+// A stall at (mid-band) resonance, counted. An L/R drive (voltage microstepping, 24 V through a
+// series resistor: R = 8 Ω in all, 3 A at rest) on the rigid Tsui rotor, unloaded: above about
+// 850 r/min the rotor's own oscillation (its load-angle mode, 64-89 Hz at these speeds, well below
+// the 667-800 Hz step rates) loses its damping to the winding's lag and grows with speed, the
+// classic mid-band instability, until at 940 r/min the rotor falls out of step. The counter counts
+// that stall, where 850 r/min runs without a lost step.
+TEST(Sweep, MidBandResonanceStallIsCounted) {
+  SweepOptions o;
+  o.model = MJSTEPPER_SOURCE_DIR "/models/tsui_rigid.xml";
+  o.speeds = {RpmToRadPerSec(850), RpmToRadPerSec(925), RpmToRadPerSec(940)};
+  o.progress = false;
+  o.overrides = {{.actuator = "shaft", .key = "drive", .value = "voltage_microstep"},
+                 {.actuator = "shaft", .key = "resistance", .value = "8"},
+                 {.actuator = "shaft", .key = "voltage_amplitude", .value = "24"}};
+  std::ostringstream progress;
+  const std::vector<SweepPoint> p = Sweep(o, progress);
+  EXPECT_EQ(p[0].lost_steps, 0);
+  EXPECT_EQ(p[1].lost_steps, 0);
+  // The growing oscillation is the rotor's mode, not the step rate.
+  for (int i : {0, 1}) {
+    EXPECT_GT(p[i].dominant_frequency, 50) << RadPerSecToRpm(p[i].speed);
+    EXPECT_LT(p[i].dominant_frequency, 100) << RadPerSecToRpm(p[i].speed);
+  }
+  EXPECT_GT(p[1].peak_to_peak_error, 4 * p[0].peak_to_peak_error);
+  EXPECT_GT(p[2].lost_steps, 4 * 50);  // it fell out of step: many electrical cycles lost
+}
+
 }  // namespace
 }  // namespace mjstepper::tools
