@@ -5,6 +5,7 @@ import sys
 import unittest
 
 import mujoco
+import numpy as np
 
 PLUGIN = os.environ["MJSTEPPER_PLUGIN"]
 SOURCE = os.environ["MJSTEPPER_SOURCE_DIR"]
@@ -37,6 +38,33 @@ class PluginFromPython(unittest.TestCase):
         self.assertAlmostEqual(math.hypot(signals[names.index("current_a")],
                                           signals[names.index("current_b")]), 1.9, delta=0.19)
         self.assertEqual(signals[names.index("lost_steps")], 0.0)
+
+    def test_rollout_threads_match_serial(self):
+        """mujoco.rollout over 8 runs (8 speeds) on 2 threads is bit-identical to 1 thread: all
+        drive state lives in plugin_state, and each thread's mjData carries its own."""
+        from mujoco import rollout
+        with open(os.path.join(SOURCE, "models", "tsui_rigid.xml")) as f:
+            xml = f.read()
+        probe = ('<sensor><plugin name="shaft_signals" plugin="mjstepper.stepper" '
+                 'objtype="actuator" objname="shaft"/></sensor></mujoco>')
+        model = mujoco.MjModel.from_xml_string(xml.replace("</mujoco>", probe))
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        data = mujoco.MjData(model)
+        state = np.zeros(mujoco.mj_stateSize(model, spec))
+        mujoco.mj_getState(model, data, state, spec)
+        speeds = np.linspace(10, 200, 8) * 2 * math.pi / 60  # rad/s, through the resonances
+        control = np.repeat(speeds[:, None, None], 2000, axis=1)  # 8 runs × 2000 steps × 1
+        initial = np.repeat(state[None, :], len(speeds), axis=0)
+        results = []
+        for threads in (1, 2):
+            datas = [mujoco.MjData(model) for _ in range(threads)]
+            results.append(rollout.rollout(model, datas, initial, control))
+        serial, parallel = results
+        self.assertTrue(np.array_equal(serial[0], parallel[0]))  # states, plugin state included
+        self.assertTrue(np.array_equal(serial[1], parallel[1]))  # sensordata: the signals
+        # The runs differ (not 8 copies of one), and the rotors turned.
+        self.assertFalse(np.array_equal(serial[1][0], serial[1][-1]))
+        self.assertGreater(abs(serial[0][-1, -1, 1]), 0.1)
 
     def test_bad_config_names_attribute(self):
         with open(os.path.join(SOURCE, "models", "tsui_rigid.xml")) as f:
