@@ -1,0 +1,64 @@
+"""Run inside a fresh virtual environment where only the mjstepper wheel (and what it requires) is
+installed: import, signals by name, presets, the library's run-time needs, the version check."""
+import math
+import os
+import subprocess
+import sys
+import unittest
+
+import mujoco
+
+import mjstepper
+
+SOURCE = sys.argv[1]
+
+
+class WheelInAFreshEnvironment(unittest.TestCase):
+    def test_steps_a_model_and_reads_signals_by_name(self):
+        spec = mujoco.MjSpec.from_file(os.path.join(SOURCE, "models", "tsui_rigid.xml"))
+        self.assertEqual(mjstepper.add_signal_sensors(spec), ["shaft"])
+        self.assertEqual(mjstepper.add_signal_sensors(spec), [])  # once only
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        omega = 100 * 2 * math.pi / 60  # rad/s
+        for _ in range(4000):  # 0.2 s at 100 r/min (velocity input)
+            data.ctrl[0] = omega
+            mujoco.mj_step(model, data)
+        signals = mjstepper.signals(model, data, "shaft")
+        self.assertEqual(tuple(signals), mjstepper.SIGNALS)
+        self.assertAlmostEqual(data.qpos[0] / (omega * 0.2), 1.0, delta=0.02)
+        current_a, unit = signals["current_a"]
+        self.assertEqual(unit, "A")
+        magnitude = math.hypot(current_a, signals["current_b"][0])
+        self.assertAlmostEqual(magnitude, 1.9, delta=0.19)  # the PI loop's 1.9 A (ripple, lag)
+        self.assertEqual(signals["lost_steps"], (0.0, "full steps"))
+        with self.assertRaises(KeyError):
+            mjstepper.signals(model, data, "no_such_actuator")
+
+    def test_presets_with_units(self):
+        tsui = mjstepper.PRESETS["tsui2009"]
+        self.assertEqual(tsui["rotor_inertia"], (0.36e-4, "kg·m²"))
+        self.assertEqual(tsui["rated_current"], (3.0, "A"))
+        self.assertEqual(set(mjstepper.PRESETS), {"tsui2009", "kim2016", "bodson1993"})
+
+    def test_library_needs_only_mujoco_from_the_package(self):
+        dynamic = subprocess.run(["readelf", "-d", mjstepper.LIBRARY], capture_output=True,
+                                 text=True, check=True).stdout
+        self.assertIn("[$ORIGIN/../mujoco]", dynamic)  # RUNPATH: the installed mujoco package
+        needed = [line.split("[")[1].rstrip("]") for line in dynamic.splitlines()
+                  if "(NEEDED)" in line]
+        self.assertIn(f"libmujoco.so.{mujoco.__version__}", needed)
+        for library in needed:  # C and C++ runtimes, and MuJoCo: no Debian library (libfmt)
+            self.assertTrue(library.startswith(("libmujoco", "libstdc++", "libm.", "libgcc_s",
+                                                "libc.")), library)
+
+    def test_refuses_another_mujoco_naming_both_versions(self):
+        code = "import mujoco; mujoco.__version__ = '3.9.9'; import mjstepper"
+        result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+        self.assertNotEqual(result.returncode, 0)
+        self.assertIn("3.9.9", result.stderr)
+        self.assertIn(mujoco.__version__, result.stderr)
+
+
+if __name__ == "__main__":
+    unittest.main(argv=sys.argv[:1], verbosity=2)
