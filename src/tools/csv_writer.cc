@@ -9,8 +9,8 @@
 
 namespace mjstepper::tools {
 
-CsvWriter::CsvWriter(std::string path, const std::vector<std::string>& header)
-    : path_(std::move(path)), tmp_path_(path_ + ".tmp") {
+CsvWriter::CsvWriter(std::string path, const std::vector<std::string>& header, int digits)
+    : path_(std::move(path)), tmp_path_(path_ + ".tmp"), digits_(digits) {
   const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
   if (!parent.empty()) std::filesystem::create_directories(parent);
   file_ = std::fopen(tmp_path_.c_str(), "w");
@@ -30,7 +30,7 @@ CsvWriter::~CsvWriter() {
 
 void CsvWriter::Row(std::span<const double> values) {
   for (size_t i = 0; i < values.size(); ++i) {
-    fmt::format_to(std::back_inserter(buffer_), "{:.10g}{}", values[i],
+    fmt::format_to(std::back_inserter(buffer_), "{:.{}g}{}", values[i], digits_,
                    i + 1 < values.size() ? ',' : '\n');
   }
   if (buffer_.size() > (1 << 20)) {

@@ -12,8 +12,9 @@ namespace mjstepper::tools {
 
 class CsvWriter {
  public:
-  /// Throws std::runtime_error when the temporary file cannot be created.
-  CsvWriter(std::string path, const std::vector<std::string>& header);
+  /// Throws std::runtime_error when the temporary file cannot be created. `digits`: significant
+  /// digits per value (17 round-trips a double exactly; logs use 10 to stay small).
+  CsvWriter(std::string path, const std::vector<std::string>& header, int digits = 10);
   ~CsvWriter();
   CsvWriter(const CsvWriter&) = delete;
   CsvWriter& operator=(const CsvWriter&) = delete;
@@ -27,6 +28,7 @@ class CsvWriter {
   std::string tmp_path_;
   std::FILE* file_ = nullptr;
   std::string buffer_;
+  int digits_ = 10;
 };
 
 }  // namespace mjstepper::tools

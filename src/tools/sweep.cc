@@ -314,9 +314,12 @@ void WriteMapCsv(const std::string& path, const std::string& parameter,
 }
 
 void WriteSweepCsv(const std::string& path, const std::vector<SweepPoint>& points) {
-  CsvWriter csv(path, {"speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
-                       "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]",
-                       "lost_steps[full steps]"});
+  // Every digit (a few rows): the Python package's Ray sweep is checked against it to 1e-12.
+  CsvWriter csv(path,
+                {"speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
+                 "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]",
+                 "lost_steps[full steps]"},
+                17);
   for (const SweepPoint& p : points) {
     const double row[] = {RadPerSecToRpm(p.speed),     p.speed,
                           RadPerSecToRpm(p.rms_error), RadPerSecToRpm(p.peak_to_peak_error),

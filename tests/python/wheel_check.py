@@ -11,6 +11,7 @@ import mujoco
 import mjstepper
 
 SOURCE = sys.argv[1]
+CPP_SWEEP = sys.argv[2]  # `mjstepper sweep` of the same grid, every digit
 
 
 class WheelInAFreshEnvironment(unittest.TestCase):
@@ -58,6 +59,36 @@ class WheelInAFreshEnvironment(unittest.TestCase):
         self.assertNotEqual(result.returncode, 0)
         self.assertIn("3.9.9", result.stderr)
         self.assertIn(mujoco.__version__, result.stderr)
+
+
+class RaySweep(unittest.TestCase):
+    def test_matches_the_cpp_sweep_on_a_local_ray(self):
+        """mjstepper.sweep.sweep on a local Ray instance (2 CPUs) gives the C++ sweep's rows to
+        1e-12 (relative, or absolute below 1), and writes them as CSV with the same header."""
+        import csv
+        import ray
+        from mjstepper import sweep
+        with open(CPP_SWEEP) as f:
+            cpp = list(csv.reader(f))
+        speeds = [float(row[1]) for row in cpp[1:]]  # rad/s, exactly the C++ grid
+        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+        try:
+            out = os.path.join(os.getcwd(), "ray_sweep.csv")
+            rows = sweep.sweep(os.path.join(SOURCE, "models", "tsui_rigid.xml"), speeds,
+                               settle=0.2, measure=0.2, out=out, progress=False)
+        finally:
+            ray.shutdown()
+        self.assertEqual(len(rows), len(speeds))
+        for row, expected in zip(rows, cpp[1:]):
+            for got, want in zip(row, expected):
+                self.assertLessEqual(abs(got - float(want)), 1e-12 * max(1.0, abs(float(want))))
+        with open(out) as f:
+            written = list(csv.reader(f))
+        self.assertEqual(written[0], cpp[0])
+        self.assertEqual(len(written), len(cpp))
+        self.assertFalse(os.path.exists(out + ".tmp"))
+        # Not a degenerate grid: the resonances ripple more than their neighbours.
+        self.assertGreater(max(r[3] for r in rows), 2 * min(r[3] for r in rows))
 
 
 if __name__ == "__main__":
