@@ -76,3 +76,6 @@ def add_signal_sensors(spec):
         sensor.plugin = probe
         added.append(a.name)
     return added
+
+
+from ._sweep import sweep  # noqa: E402  (Ray is imported only when a sweep runs)

@@ -63,18 +63,17 @@ class WheelInAFreshEnvironment(unittest.TestCase):
 
 class RaySweep(unittest.TestCase):
     def test_matches_the_cpp_sweep_on_a_local_ray(self):
-        """mjstepper.sweep.sweep on a local Ray instance (2 CPUs) gives the C++ sweep's rows to
+        """mjstepper.sweep on a local Ray instance (2 CPUs) gives the C++ sweep's rows to
         1e-12 (relative, or absolute below 1), and writes them as CSV with the same header."""
         import csv
         import ray
-        from mjstepper import sweep
         with open(CPP_SWEEP) as f:
             cpp = list(csv.reader(f))
         speeds = [float(row[1]) for row in cpp[1:]]  # rad/s, exactly the C++ grid
         ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
         try:
             out = os.path.join(os.getcwd(), "ray_sweep.csv")
-            rows = sweep.sweep(os.path.join(SOURCE, "models", "tsui_rigid.xml"), speeds,
+            rows = mjstepper.sweep(os.path.join(SOURCE, "models", "tsui_rigid.xml"), speeds,
                                settle=0.2, measure=0.2, out=out, progress=False)
         finally:
             ray.shutdown()

@@ -3,7 +3,8 @@
 Each run is the C++ sweep's (src/tools/sweep.cc, RunOne) step for step: the same ramp command, the
 same steps, the same metrics in the same order of operations, so the results match it to round-off
 (tested to 1e-12). Runs are Ray tasks: on all local cores by default, on a cluster given its
-address (every node needs this package and the model's files; see docs/ray.md).
+address (every node needs this package; see docs/ray.md). `mjstepper.sweep` is this module's
+`sweep`.
 """
 import csv
 import math
