@@ -52,6 +52,19 @@ def signals(model, data, actuator):
                    "call mjstepper.add_signal_sensors(spec) before compiling")
 
 
+def configure(spec, actuator, **attributes):
+    """Sets plugin attributes (plugin/README.md) of the stepper on `actuator` in an MjSpec, through
+    the spec's own plugin config, e.g. configure(spec, "shaft", drive="servo", hold_current=1.5).
+    An actuator on a named instance changes the instance (and every actuator sharing it)."""
+    a = next((x for x in spec.actuators if x.name == actuator), None)
+    if a is None or not a.plugin.active:
+        raise KeyError(f"no mjstepper actuator named {actuator!r}")
+    target = a.plugin
+    if not a.plugin.plugin_name:  # on a named instance
+        target = next(p for p in spec.plugins if p.name == a.plugin.name)
+    target.config = {**target.config, **{k: str(v) for k, v in attributes.items()}}
+
+
 def add_signal_sensors(spec):
     """Adds a signal sensor to every mjstepper actuator of an MjSpec that has none; returns the
     names of the actuators that got one."""

@@ -36,6 +36,22 @@ class WheelInAFreshEnvironment(unittest.TestCase):
         with self.assertRaises(KeyError):
             mjstepper.signals(model, data, "no_such_actuator")
 
+    def test_config_edited_through_mjspec(self):
+        """mjstepper.configure edits the spec's plugin config: the drive holds 1.5 A instead of
+        the default 1.9 A, and a bad value fails to compile, naming it."""
+        spec = mujoco.MjSpec.from_file(os.path.join(SOURCE, "models", "tsui_rigid.xml"))
+        mjstepper.add_signal_sensors(spec)
+        mjstepper.configure(spec, "shaft", hold_current=1.5)
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        self.assertAlmostEqual(mjstepper.signals(model, data, "shaft")["current_d"][0], 1.5,
+                               delta=1e-12)
+        mjstepper.configure(spec, "shaft", hold_current=-1)
+        with self.assertRaises(ValueError) as ctx:
+            spec.compile()
+        self.assertIn('hold_current = "-1"', str(ctx.exception))
+
     def test_presets_with_units(self):
         tsui = mjstepper.PRESETS["tsui2009"]
         self.assertEqual(tsui["rotor_inertia"], (0.36e-4, "kg·m²"))
