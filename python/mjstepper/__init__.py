@@ -91,4 +91,4 @@ def add_signal_sensors(spec):
     return added
 
 
-from ._sweep import sweep  # noqa: E402  (Ray is imported only when a sweep runs)
+from ._sweep import resonance_map, sweep  # noqa: E402,F401  (Ray is imported only when run)

@@ -62,11 +62,37 @@ def _dominant_frequency(x, sample_rate, f_min, f_max, df):
     return f_min + (k + offset) * df
 
 
-def run_one(xml, actuator, speed, settle, measure, acceleration):
-    """One run of the C++ sweep (ramp to `speed` rad/s, settle, measure): the sweep's CSV row."""
+def _set_parameter(model, parameter, value):
+    """`mjstepper map`'s edit of the compiled model (src/tools/sweep.cc WithParameter):
+    stiffness:JOINT sets the joint's stiffness; mass:BODY sets the body's mass, scales its inertia
+    with it and recomputes MuJoCo's constants (stepper_model.cc SetBodyMass)."""
+    kind, _, name = parameter.partition(":")
+    if kind == "stiffness":
+        joint = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if joint < 0:
+            raise ValueError(f"{parameter}: no joint named {name!r}")
+        model.jnt_stiffness[joint] = value
+    elif kind == "mass":
+        body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+        if body <= 0:
+            raise ValueError(f"{parameter}: no body named {name!r}")
+        scale = value / model.body_mass[body]
+        model.body_mass[body] = value
+        model.body_inertia[body] *= scale
+        mujoco.mj_setConst(model, mujoco.MjData(model))
+    else:
+        raise ValueError(f"{parameter}: expected stiffness:JOINT or mass:BODY")
+
+
+def run_one(xml, actuator, speed, settle, measure, acceleration, parameter=None, value=None):
+    """One run of the C++ sweep (ramp to `speed` rad/s, settle, measure): the sweep's CSV row.
+    With `parameter` ("stiffness:JOINT" or "mass:BODY"), the model is first edited as
+    `mjstepper map` edits it."""
     spec = mujoco.MjSpec.from_string(xml)
     add_signal_sensors(spec)
     model = spec.compile()
+    if parameter is not None:
+        _set_parameter(model, parameter, value)
     data = mujoco.MjData(model)
     aid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, actuator)
     ctrladr, outadr = model.actuator_ctrladr[aid], model.actuator_outadr[aid]
@@ -90,13 +116,8 @@ def run_one(xml, actuator, speed, settle, measure, acceleration):
     return (speed * RPM, speed, rms * RPM, peak_to_peak * RPM, frequency, lost)
 
 
-def sweep(model, speeds, actuator=None, settle=0.4, measure=0.5, acceleration=209.44,
-          address=None, out=None, progress=True):
-    """Runs the constant-speed sweep of `model` (an MJCF path) at `speeds` (rad/s) as Ray tasks and
-    returns its rows (the C++ sweep's CSV columns), written to `out` (CSV) if given.
-
-    address: None runs a local Ray on all cores; "auto" or "ray://host:10001" joins a cluster.
-    """
+def _run_grid(model, runs, actuator, settle, measure, acceleration, address, progress, what):
+    """Runs `runs` ((speed, parameter, value) each) as Ray tasks; their rows in order."""
     import ray
     with open(model) as f:
         xml = f.read()
@@ -109,8 +130,8 @@ def sweep(model, speeds, actuator=None, settle=0.4, measure=0.5, acceleration=20
     if not ray.is_initialized():
         ray.init(address=address, include_dashboard=False, log_to_driver=False)
     task = ray.remote(run_one)
-    pending = [task.remote(xml, actuator, float(s), settle, measure, acceleration)
-               for s in speeds]
+    pending = [task.remote(xml, actuator, float(speed), settle, measure, acceleration, parameter,
+                           value) for speed, parameter, value in runs]
     order = {ref: i for i, ref in enumerate(pending)}
     rows = [None] * len(pending)
     begin = time.time()
@@ -119,15 +140,46 @@ def sweep(model, speeds, actuator=None, settle=0.4, measure=0.5, acceleration=20
         for ref in done:
             rows[order[ref]] = ray.get(ref)
         if progress:
-            print(f"\r  sweep on Ray: {len(rows) - len(pending)}/{len(rows)} runs "
+            print(f"\r  {what} on Ray: {len(rows) - len(pending)}/{len(rows)} runs "
                   f"({time.time() - begin:.0f} s)", end="", file=sys.stderr, flush=True)
     if progress:
         print(file=sys.stderr)
+    return rows
+
+
+def _write_csv(out, header, rows):
+    """Every digit, written to out.tmp and renamed when complete."""
+    tmp = out + ".tmp"
+    with open(tmp, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(header)
+        writer.writerows([repr(float(v)) for v in row] for row in rows)
+    os.replace(tmp, out)
+
+
+def sweep(model, speeds, actuator=None, settle=0.4, measure=0.5, acceleration=209.44,
+          address=None, out=None, progress=True):
+    """Runs the constant-speed sweep of `model` (an MJCF path) at `speeds` (rad/s) as Ray tasks and
+    returns its rows (the C++ sweep's CSV columns), written to `out` (CSV) if given.
+
+    address: None runs a local Ray on all cores; "auto" or "ray://host:10001" joins a cluster.
+    """
+    rows = _run_grid(model, [(s, None, None) for s in speeds], actuator, settle, measure,
+                     acceleration, address, progress, "sweep")
     if out is not None:
-        tmp = out + ".tmp"
-        with open(tmp, "w", newline="") as f:
-            writer = csv.writer(f)
-            writer.writerow(HEADER)
-            writer.writerows([repr(v) for v in row] for row in rows)
-        os.replace(tmp, out)
+        _write_csv(out, HEADER, rows)
+    return rows
+
+
+def resonance_map(model, speeds, parameter, values, actuator=None, settle=0.4, measure=0.5,
+                  acceleration=209.44, address=None, out=None, progress=True):
+    """`mjstepper map` as Ray tasks: the sweep over speeds (rad/s) × values of one load parameter
+    ("stiffness:JOINT" in N·m/rad or N/m, "mass:BODY" in kg). Rows are the C++ map's CSV
+    columns: the value, then the sweep's; written to `out` (CSV) if given."""
+    runs = [(s, parameter, v) for v in values for s in speeds]
+    rows = _run_grid(model, runs, actuator, settle, measure, acceleration, address, progress,
+                     "map")
+    rows = [(value,) + row for (_, _, value), row in zip(runs, rows)]
+    if out is not None:
+        _write_csv(out, (parameter,) + HEADER, rows)
     return rows

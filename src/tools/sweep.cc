@@ -296,9 +296,11 @@ std::vector<MapPoint> Map(const MapOptions& o, std::ostream& progress) {
 
 void WriteMapCsv(const std::string& path, const std::string& parameter,
                  const std::vector<MapPoint>& points) {
-  CsvWriter csv(path, {parameter, "speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
-                       "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]",
-                       "lost_steps[full steps]"});
+  CsvWriter csv(path,
+                {parameter, "speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
+                 "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]",
+                 "lost_steps[full steps]"},
+                17);  // every digit, as the sweep's
   for (const MapPoint& m : points) {
     const SweepPoint& p = m.point;
     const double row[] = {m.value,

@@ -12,6 +12,7 @@ import mjstepper
 
 SOURCE = sys.argv[1]
 CPP_SWEEP = sys.argv[2]  # `mjstepper sweep` of the same grid, every digit
+CPP_MAP = sys.argv[3]  # `mjstepper map` of the coupling model, every digit
 
 
 class WheelInAFreshEnvironment(unittest.TestCase):
@@ -104,6 +105,26 @@ class RaySweep(unittest.TestCase):
         self.assertFalse(os.path.exists(out + ".tmp"))
         # Not a degenerate grid: the resonances ripple more than their neighbours.
         self.assertGreater(max(r[3] for r in rows), 2 * min(r[3] for r in rows))
+
+    def test_map_matches_the_cpp_map_on_a_local_ray(self):
+        """mjstepper.resonance_map on a local Ray gives `mjstepper map`'s rows to 1e-12."""
+        import csv
+        import ray
+        with open(CPP_MAP) as f:
+            cpp = list(csv.reader(f))
+        values = sorted({float(row[0]) for row in cpp[1:]})
+        speeds = sorted({float(row[2]) for row in cpp[1:]})
+        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+        try:
+            rows = mjstepper.resonance_map(os.path.join(SOURCE, "models", "tsui_coupling.xml"),
+                                           speeds, "stiffness:coupling", values, settle=0.2,
+                                           measure=0.2, progress=False)
+        finally:
+            ray.shutdown()
+        self.assertEqual(len(rows), len(cpp) - 1)
+        for row, expected in zip(rows, cpp[1:]):
+            for got, want in zip(row, expected):
+                self.assertLessEqual(abs(got - float(want)), 1e-12 * max(1.0, abs(float(want))))
 
 
 if __name__ == "__main__":

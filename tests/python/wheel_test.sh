@@ -17,5 +17,8 @@ wheel=$(ls "$work"/dist/mjstepper-*.whl)
 "$work/venv/bin/pip" install -q "$wheel[ray]" 2>&1 | grep -v "^WARNING: Location" || true
 "$cli" sweep "$src/models/tsui_rigid.xml" --speeds 40,45,85,170rpm --settle 0.2 --measure 0.2 \
   --quiet --out "$work/cpp_sweep" >/dev/null
+"$cli" map "$src/models/tsui_coupling.xml" --speeds 40,85rpm --vary stiffness:coupling=20,50 \
+  --settle 0.2 --measure 0.2 --quiet --out "$work/cpp_map" >/dev/null
 cd "$work"
-"$work/venv/bin/python" "$src/tests/python/wheel_check.py" "$src" "$work/cpp_sweep.csv"
+"$work/venv/bin/python" "$src/tests/python/wheel_check.py" "$src" "$work/cpp_sweep.csv" \
+  "$work/cpp_map.csv"
