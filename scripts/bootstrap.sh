@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what mjstepper needs and is missing; does nothing when everything is there.
 #   Debian packages (only when root): compiler, CMake, Ninja, Eigen, GoogleTest, Google Benchmark,
-#   CLI11, fmt, OSMesa, ffmpeg.
+#   CLI11, fmt, OSMesa, ffmpeg; Xvfb, xwd and Mesa's GL for the test of MuJoCo's viewer.
 #   A project-local virtual environment .venv with requirements.txt (the pinned mujoco wheel).
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -9,7 +9,7 @@ here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 # Why each package is here: see README.md, "Dependencies".
 packages=(g++ cmake ninja-build pkg-config python3-venv libeigen3-dev libgtest-dev libgmock-dev
           libbenchmark-dev libcli11-dev libfmt-dev libtinyxml2-dev libosmesa6-dev libpng-dev
-          ffmpeg)
+          ffmpeg xvfb xauth x11-apps libgl1 libglx-mesa0 libgl1-mesa-dri)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

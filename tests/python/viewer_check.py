@@ -1,0 +1,68 @@
+"""mujoco.viewer.launch_passive with the plugin, on a virtual X screen (ctest runs this under
+xvfb-run): the viewer runs the model, and a frame grabbed from the screen shows the drive's gauge,
+whose rotor arrow is the only magenta in the scene; with gauge="off" there is none.
+    viewer_check.py PLUGIN SOURCE_DIR"""
+import struct
+import subprocess
+import sys
+import time
+import unittest
+
+import mujoco
+import mujoco.viewer
+
+PLUGIN, SOURCE = sys.argv[1], sys.argv[2]
+
+
+def grab_screen():
+    """(width, height, bytes per line, BGRX pixels) of the X root window, from xwd's dump."""
+    raw = subprocess.run(["xwd", "-root", "-silent"], capture_output=True, check=True).stdout
+    header = struct.unpack(">25I", raw[:100])
+    header_size, width, height, bytes_per_line, ncolors = (header[0], header[4], header[5],
+                                                          header[12], header[19])
+    return width, height, bytes_per_line, raw[header_size + 12 * ncolors:]
+
+
+def magenta_pixels(gauge):
+    with open(f"{SOURCE}/models/tsui_rigid.xml") as f:
+        xml = f.read().replace('<config key="input"',
+                               f'<config key="gauge" value="{gauge}"/><config key="input"')
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    with mujoco.viewer.launch_passive(model, data) as viewer:
+        viewer.cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
+        viewer.cam.fixedcamid = 0  # "front", looking down at the rotor
+        for _ in range(400):  # 20 ms at 100 r/min
+            data.ctrl[0] = 10.0
+            mujoco.mj_step(model, data)
+            viewer.sync()
+            time.sleep(0.002)
+        time.sleep(1.0)  # let the render thread draw the last state
+        running = viewer.is_running()
+        width, height, bytes_per_line, pixels = grab_screen()
+    count = 0
+    for y in range(0, height, 2):
+        row = pixels[y * bytes_per_line:(y + 1) * bytes_per_line]
+        for x in range(0, width, 2):
+            b, g, r = row[4 * x], row[4 * x + 1], row[4 * x + 2]
+            if r > 120 and b > 120 and g < 0.5 * min(r, b):
+                count += 1
+    return running, count, data.qpos[0]
+
+
+class PassiveViewer(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        mujoco.mj_loadPluginLibrary(PLUGIN)
+
+    def test_viewer_runs_and_shows_the_gauge(self):
+        running, with_gauge, turned = magenta_pixels("on")
+        self.assertTrue(running)
+        self.assertGreater(turned, 0.1)  # the viewer's model moved: 10 rad/s for 20 ms
+        _, without_gauge, _ = magenta_pixels("off")
+        self.assertGreater(with_gauge, 30)  # the rotor arrow: about 90 sampled pixels
+        self.assertLess(without_gauge, 5)
+
+
+if __name__ == "__main__":
+    unittest.main(argv=sys.argv[:1], verbosity=2)
