@@ -189,6 +189,18 @@ DriveConfig Parse(const AttributeSource& a) {
              fmt::format("must be <= bus_voltage = {} for voltage_microstep (V)", c.bus_voltage));
   }
   Validate(c);  // the core's own checks, as a backstop
+  // The start state respects the bus (S-13): the drive starts at rest holding its current with
+  // v = R·i, which the bridges must be able to give. Named by the attribute that sets the current.
+  const DriveState rest = Drive(c).Rest(0.0, 0.0, 0.0);
+  const double needed = std::max(std::abs(rest.voltage_a), std::abs(rest.voltage_b));  // V
+  if (needed > c.bus_voltage) {
+    const bool by_hold = std::find(used.begin(), used.end(), &kAttrHoldCurrent) != used.end();
+    const AttributeSpec& culprit = by_hold ? kAttrHoldCurrent : kAttrBusVoltage;
+    ThrowBad(culprit, a.Raw(culprit).value_or(culprit.default_text),
+             fmt::format("at rest the drive needs R·I = {:.4g} V on a phase, more than bus_voltage "
+                         "= {:g} V: the motor would burn or the bridges saturate",
+                         needed, c.bus_voltage));
+  }
   return c;
 }
 

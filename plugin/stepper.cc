@@ -4,6 +4,7 @@
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
+#include <cmath>
 #include <exception>
 #include <string>
 #include <variant>
@@ -138,6 +139,12 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
     }
     if (m->actuator_ctrlnum[a] != 1 || m->actuator_outnum[a] != 1) {
       return fail_for(actuator, "the stepper takes one control and drives one output");
+    }
+    const double gear = m->actuator_gear[6 * m->actuator_outadr[a]];
+    if (!(std::abs(gear) > 0) || !std::isfinite(gear)) {
+      return fail_for(actuator, fmt::format("gear = {:g}: must be finite and nonzero (the rotor "
+                                            "turns gear times the joint)",
+                                            gear));
     }
     stepper->actuators_.push_back({.id = a,
                                    .ctrladr = m->actuator_ctrladr[a],

@@ -18,8 +18,9 @@
 namespace mjstepper::tools {
 
 RunResult Run(const RunOptions& options, std::ostream& progress) {
-  if (!(options.duration > 0)) {
-    throw std::invalid_argument(fmt::format("--duration = {}: must be > 0 (s)", options.duration));
+  if (!(options.duration > 0) || !std::isfinite(options.duration)) {
+    throw std::invalid_argument(
+        fmt::format("--duration = {}: must be finite and > 0 (s)", options.duration));
   }
   if (options.log_every < 1) {
     throw std::invalid_argument(fmt::format("--log-every = {}: must be >= 1", options.log_every));

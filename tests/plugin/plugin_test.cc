@@ -345,6 +345,16 @@ TEST(StepperPlugin, MissingRotorInertiaFailsNamingTheArmature) {
       << error;
 }
 
+// gear = 0 would freeze the rotor and report a force on nothing: a load error naming the gear.
+TEST(StepperPlugin, ZeroGearFailsLoad) {
+  std::string error;
+  const std::string actuator =
+      R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" gear="0" armature="0.36e-4">)" +
+      Config("input", "velocity") + "</plugin>";
+  EXPECT_FALSE(LoadModel(RotorModel(actuator), &error));
+  EXPECT_THAT(error, AllOf(HasSubstr("actuator 'm1'"), HasSubstr("gear = 0")));
+}
+
 std::vector<std::string>* captured_warnings = nullptr;
 
 // At a step too coarse for the rotor alone, loading warns through mju_warning, naming the step
@@ -441,7 +451,9 @@ INSTANTIATE_TEST_SUITE_P(
                       BadConfig{"detent", "4 0.006", "triplets"},
                       BadConfig{"compute_delay", "50e-6", "< isr_period"},
                       BadConfig{"voltage_amplitude", "-1", "not read by drive current_microstep"}, BadConfig{"ki", "-0.01", ">= 0"},
-                      BadConfig{"isr_period", "0", "> 0"}),
+                      BadConfig{"isr_period", "0", "> 0"},
+                      BadConfig{"hold_current", "1000", "more than bus_voltage = 48 V"},
+                      BadConfig{"damping", "4 4", "harmonic 4 is named twice"}),
     [](const ::testing::TestParamInfo<BadConfig>& info) {
       return std::string(info.param.key) + "_" + std::to_string(info.index);
     });

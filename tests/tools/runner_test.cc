@@ -70,6 +70,12 @@ TEST(Runner, RunWritesCsvWithUnitsAndNoTemporaryFile) {
   EXPECT_EQ(rows, 1000);
 }
 
+TEST(Runner, InfiniteDurationIsRefused) {
+  const Result r = RunCli("run " + kModel + " --duration inf");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("--duration = inf: must be finite and > 0"));
+}
+
 TEST(Runner, BadProfileOrActuatorFailsWithoutOutput) {
   const auto csv = TempDir() / "bad.csv";
   Result r =

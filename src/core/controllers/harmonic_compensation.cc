@@ -21,6 +21,11 @@ HarmonicCompensation HarmonicCompensation::FromAttributes(const AttributeSource&
     if (!ParseFiniteDouble(field, &order)) {
       ThrowBad(kAttrDamping, *raw, "expected none, all, or harmonic orders such as \"4 2 1\"");
     }
+    for (const DetentHarmonic& h : selected.harmonics) {
+      if (h.order == order) {
+        ThrowBad(kAttrDamping, *raw, fmt::format("harmonic {} is named twice", field));
+      }
+    }
     bool found = false;
     for (const DetentHarmonic& h : estimates) {
       if (h.order == order) {
