@@ -5,6 +5,7 @@ whose rotor arrow is the only magenta in the scene; with gauge="off" there is no
 import struct
 import subprocess
 import sys
+import threading
 import time
 import unittest
 
@@ -40,6 +41,11 @@ def magenta_pixels(gauge):
         time.sleep(1.0)  # let the render thread draw the last state
         running = viewer.is_running()
         width, height, bytes_per_line, pixels = grab_screen()
+    # close() only asks the viewer's (daemon) thread to stop: wait until it has destroyed its
+    # window, or it may still be doing so when glfw.terminate runs at exit (a segfault in GLFW).
+    for thread in threading.enumerate():
+        if thread is not threading.main_thread():
+            thread.join(timeout=30)
     count = 0
     for y in range(0, height, 2):
         row = pixels[y * bytes_per_line:(y + 1) * bytes_per_line]
