@@ -52,7 +52,8 @@ constexpr AttributeSpec kAttrBusVoltage{
 constexpr AttributeSpec kAttrIsrPeriod{
     "isr_period", "real", "50e-6", "s",
     "Interrupt (control) period T: sample and compute at t_k = k·T (absolute time), S-15. May be "
-    "much shorter than the timestep (1e-6: 1 MHz, Kim's continuous-time designs) or longer."};
+    "much shorter than the timestep (1e-6: 1 MHz, Kim's continuous-time designs) or longer; at "
+    "most 10 000 interrupts per timestep (a step runs each one)."};
 constexpr AttributeSpec kAttrComputeDelay{
     "compute_delay", "real", "25e-6", "s",
     "D: the voltage computed at t_k applies from t_k + D and is held until t_{k+1} + D (S-15). "

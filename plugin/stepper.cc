@@ -4,6 +4,7 @@
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <exception>
 #include <string>
@@ -72,7 +73,34 @@ std::string VersionMismatch(int built_for, int running) {
       dotted(built_for), built_for, dotted(running), running);
 }
 
-std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
+namespace {
+std::atomic<int> live_steppers{0};
+}  // namespace
+
+Stepper::Stepper() { ++live_steppers; }
+Stepper::~Stepper() { --live_steppers; }
+int Stepper::LiveCount() { return live_steppers; }
+
+int Stepper::Init(const mjModel* m, mjData* d, int instance) {
+  try {  // no exception crosses into MuJoCo
+    int first = 0;
+    while (!IsStepperInstance(m, first)) ++first;
+    if (instance == first) {
+      for (int later = instance + 1; later < m->nplugin; ++later) {
+        if (IsStepperInstance(m, later) && !Create(m, later, /*advice=*/false)) return -1;
+      }
+    }
+    std::unique_ptr<Stepper> stepper = Create(m, instance);
+    if (!stepper) return -1;
+    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(stepper.release());
+    return 0;
+  } catch (const std::exception& e) {
+    mju_warning("mjstepper: %s", e.what());
+    return -1;
+  }
+}
+
+std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool advice) {
   if (const std::string mismatch = VersionMismatch(mjVERSION_HEADER, mj_version());
       !mismatch.empty()) {
     mju_warning("%s", mismatch.c_str());
@@ -118,6 +146,19 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
 
   const std::variant<StepperConfig, std::string> parsed = ParseStepperConfig(read);
   if (const std::string* error = std::get_if<std::string>(&parsed)) return fail(*error);
+  // Every step runs each interrupt in it (and MuJoCo's compiler steps once while loading): bound
+  // their number, so that no config makes a load or a step take unbounded time.
+  const double isr_period = std::get<StepperConfig>(parsed).drive.isr_period;  // s
+  const double max_timestep = kMaxInterruptsPerStep * isr_period;              // s
+  if (!(m->opt.timestep <= max_timestep)) {
+    const char* raw = read("isr_period");
+    return fail(fmt::format(
+        "isr_period = \"{}\": at most {} interrupts per timestep ({:g} s) are run; use "
+        "isr_period >= {:g} (s)",
+        raw != nullptr && raw[0] != '\0' ? std::string(raw) : fmt::format("{:g}", isr_period),
+        kMaxInterruptsPerStep, m->opt.timestep, m->opt.timestep / kMaxInterruptsPerStep));
+  }
+  stepper->max_timestep_ = max_timestep;
   stepper->drive_.emplace(std::get<StepperConfig>(parsed).drive);
   stepper->state_size_ = stepper->drive_->layout().total();
   stepper->gauge_ = std::get<StepperConfig>(parsed).gauge;
@@ -150,7 +191,7 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
                                    .ctrladr = m->actuator_ctrladr[a],
                                    .outadr = m->actuator_outadr[a],
                                    .qposadr = m->jnt_qposadr[joint],
-                                   .gear = m->actuator_gear[6 * m->actuator_outadr[a]]});
+                                   .gear = gear});
     // The rotor's inertia is MuJoCo's business (armature); the preset knows its value.
     const double rotor_inertia = stepper->drive_->config().motor.rotor_inertia;  // kg·m²
     if (m->actuator_armature[a] < rotor_inertia * (1 - 1e-9)) {
@@ -163,7 +204,7 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
     // The step the rotor alone needs (a load only lowers ωn): warn, as MuJoCo warns, if coarser.
     const double inertia = std::max(m->actuator_armature[a], rotor_inertia);
     const double largest = LargestTimestep(stepper->drive_->HoldingStiffness(), inertia);
-    if (inertia > 0 && m->opt.timestep > largest) {
+    if (advice && inertia > 0 && m->opt.timestep > largest) {
       mju_warning("%s", fmt::format("mjstepper: {}: timestep {:g} s is too coarse for the rotor "
                                     "alone (ωn·h = {:.3g} > {}); use timestep <= {:.3g} s",
                                     actuator, m->opt.timestep,
@@ -184,8 +225,16 @@ void Stepper::Reset(const mjModel* m, mjtNum* plugin_state, int instance) {
   std::fill_n(plugin_state, m->plugin_statenum[instance], 0.0);
 }
 
-double Stepper::Command(const mjModel* m, const mjData* d, const Actuator& a) const {
+double Stepper::Command(const mjModel* m, const mjData* d, const Actuator& a,
+                        const DriveState* state) const {
   double ctrl = d->ctrl[a.ctrladr];  // plugins get ctrl raw: clamp it as MuJoCo would
+  if (!std::isfinite(ctrl) || std::abs(ctrl) > mjMAXVAL) {
+    // A NaN, infinite or absurd ctrl (MuJoCo's own test, mju_isBad) is not a command: the drive
+    // holds what it had (stops, in velocity mode) instead of turning its state to NaN.
+    const bool velocity = drive_->config().input == InputMode::kVelocity;
+    if (velocity) return 0.0;
+    return state != nullptr && state->started ? state->theta_cmd : d->actuator_length[a.outadr];
+  }
   if (m->actuator_ctrllimited[a.ctrladr]) {
     ctrl = std::clamp(ctrl, m->actuator_ctrlrange[2 * a.ctrladr],
                       m->actuator_ctrlrange[2 * a.ctrladr + 1]);
@@ -197,7 +246,7 @@ DriveState Stepper::CurrentState(const mjModel* m, const mjData* d, int instance
   DriveState state = drive_->Load(Slot(m, d, instance, slot));
   if (!state.started) {
     const Actuator& a = actuators_[slot];
-    state = drive_->Rest(d->time, d->actuator_length[a.outadr], Command(m, d, a));
+    state = drive_->Rest(d->time, d->actuator_length[a.outadr], Command(m, d, a, nullptr));
   }
   return state;
 }
@@ -224,10 +273,20 @@ void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
   if (!drive_) return;
   const double t1 = d->time;  // s, the step's end: MuJoCo advances time before plugins
   const double t0 = t1 - m->opt.timestep;
+  if (m->opt.timestep > max_timestep_ && !warned_timestep_.exchange(true)) {
+    // Raised after loading (which refuses it): every interrupt still runs, so say what it costs.
+    mju_warning("%s", fmt::format("mjstepper: timestep {:g} s runs {:.0f} interrupts per step, "
+                                  "more than the {} a load allows; use isr_period >= {:g} (s) or "
+                                  "a smaller timestep",
+                                  m->opt.timestep, m->opt.timestep / drive_->config().isr_period,
+                                  kMaxInterruptsPerStep, m->opt.timestep / kMaxInterruptsPerStep)
+                          .c_str());
+  }
   for (size_t slot = 0; slot < actuators_.size(); ++slot) {
     const Actuator& a = actuators_[slot];
     DriveState state = drive_->Load(Slot(m, d, instance, slot));
-    const double command = Command(m, d, a);
+    // (A bad ctrl is counted by MuJoCo itself, mjWARN_BADCTRL, for plugin actuators too.)
+    const double command = Command(m, d, a, &state);
     if (!state.started) {
       // actuator_length still holds the step's start value here (Euler, implicitfast).
       state = drive_->Rest(t0, d->actuator_length[a.outadr], command);
@@ -323,15 +382,7 @@ void RegisterStepperPlugin() {
   plugin.nstate = +[](const mjModel* m, int instance) { return Stepper::StateSize(m, instance); };
   plugin.nsensordata = +[](const mjModel*, int, int) { return static_cast<int>(kNumSignals); };
   plugin.init = +[](const mjModel* m, mjData* d, int instance) {
-    std::unique_ptr<Stepper> stepper;
-    try {
-      stepper = Stepper::Create(m, instance);
-    } catch (const std::exception& e) {  // no exception crosses into MuJoCo
-      mju_warning("mjstepper: %s", e.what());
-    }
-    if (!stepper) return -1;
-    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(stepper.release());
-    return 0;
+    return Stepper::Init(m, d, instance);
   };
   plugin.destroy = +[](mjData* d, int instance) {
     delete reinterpret_cast<Stepper*>(d->plugin_data[instance]);

@@ -12,6 +12,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include <atomic>
 #include <memory>
 #include <optional>
 #include <string>
@@ -23,6 +24,10 @@ namespace mjstepper::plugin {
 
 inline constexpr char kPluginName[] = "mjstepper.stepper";
 
+/// Interrupts per timestep a drive may run (its work per step grows with them): 10 000 is 1 MHz
+/// control on a 10 ms step, far beyond any model here (at most 50).
+inline constexpr int kMaxInterruptsPerStep = 10000;
+
 /// "" when the headers and the library agree, else a message naming both versions. Exported (the
 /// library hides everything else) for the plugin tests.
 [[gnu::visibility("default")]] std::string VersionMismatch(int built_for, int running);
@@ -30,7 +35,18 @@ inline constexpr char kPluginName[] = "mjstepper.stepper";
 class Stepper {
  public:
   /// Parses and checks the instance; on error warns (naming attribute and value) and returns null.
-  static std::unique_ptr<Stepper> Create(const mjModel* m, int instance);
+  /// `advice`: also warn about what loads but is unwise (a coarse timestep); off for the
+  /// look-ahead check of later instances (Init).
+  static std::unique_ptr<Stepper> Create(const mjModel* m, int instance, bool advice = true);
+
+  /// The plugin's init: creates the instance into plugin_data; 0, or -1 on error. MuJoCo frees
+  /// mjData without destroying the instances made before a failing one, so the model's first
+  /// stepper instance checks every later one before any is made.
+  static int Init(const mjModel* m, mjData* d, int instance);
+
+  /// Steppers alive in this process (plugin_data that was never destroyed shows up here).
+  [[gnu::visibility("default")]] static int LiveCount();
+  ~Stepper();
 
   /// mjtNums of plugin_state for the instance: the drive's layout, per bound actuator.
   static int StateSize(const mjModel* m, int instance);
@@ -62,8 +78,11 @@ class Stepper {
     double gear = 1;
   };
 
-  Stepper() = default;
-  double Command(const mjModel* m, const mjData* d, const Actuator& a) const;
+  Stepper();
+  /// The actuator's command from its ctrl, clamped as MuJoCo would; a bad ctrl (NaN, infinite,
+  /// beyond mjMAXVAL) holds the drive's command instead (`state`: the drive's, if started).
+  double Command(const mjModel* m, const mjData* d, const Actuator& a,
+                 const DriveState* state) const;
   mjtNum* Slot(const mjModel* m, const mjData* d, int instance, int slot) const {
     return d->plugin_state + m->plugin_stateadr[instance] + slot * state_size_;
   }
@@ -74,6 +93,10 @@ class Stepper {
   std::optional<Drive> drive_;  // empty for a probe
   int state_size_ = 0;          // doubles of plugin_state per actuator: drive_->layout().total()
   bool gauge_ = true;
+  double max_timestep_ = 0;  // s: kMaxInterruptsPerStep interrupt periods (checked at load)
+  // Whether a timestep raised past max_timestep_ after loading was reported (once per mjData):
+  // a diagnostic, not simulation state.
+  mutable std::atomic<bool> warned_timestep_{false};
   std::vector<Actuator> actuators_;  // bound actuators, in id order
 };
 

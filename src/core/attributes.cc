@@ -7,6 +7,21 @@
 #include <sstream>
 
 namespace mjstepper {
+namespace {
+
+// The magnitudes a number attribute may have besides 0: products and quotients of a few of them
+// then stay far inside the doubles' range, so no accepted config overflows the drive's arithmetic
+// (the fuzzer, tests/fuzz, found R = 4e-269 Ω, L = 1e-320 H, Km = 2.5e185 N·m/A or kp = 1.7e308 V/A
+// turning the drive's state to NaN in its first steps).
+constexpr double kSmallestMagnitude = 1e-12;
+constexpr double kLargestMagnitude = 1e12;
+constexpr const char* kMagnitudeRule = "must be 0 or between 1e-12 and 1e12 in magnitude";
+
+bool SaneMagnitude(double v) {
+  return v == 0 || (std::abs(v) >= kSmallestMagnitude && std::abs(v) <= kLargestMagnitude);
+}
+
+}  // namespace
 
 void ThrowBad(const AttributeSpec& spec, const std::string& value, const std::string& rule) {
   throw ConfigError(fmt::format("{} = \"{}\": {}", spec.name, value, rule));
@@ -47,6 +62,9 @@ double AttributeSource::Real(const AttributeSpec& spec, double fallback, Rule ru
   }
   if (rule == Rule::kNonNegative && !(value >= 0)) {
     ThrowBad(spec, *raw, fmt::format("must be >= 0 ({})", spec.unit));
+  }
+  if (!SaneMagnitude(value)) {
+    ThrowBad(spec, *raw, fmt::format("{} ({})", kMagnitudeRule, spec.unit));
   }
   return value;
 }
@@ -97,6 +115,9 @@ std::optional<std::vector<DetentHarmonic>> AttributeSource::Harmonics(
       ThrowBad(spec, *raw, "harmonic order must be an integer in [1, 1000]");
     }
     if (values[1] < 0) ThrowBad(spec, *raw, "amplitude must be >= 0 (N·m)");
+    if (!SaneMagnitude(values[1]) || !SaneMagnitude(values[2])) {
+      ThrowBad(spec, *raw, fmt::format("amplitude and phase {} (N·m, rad)", kMagnitudeRule));
+    }
     harmonics.push_back(
         {.order = static_cast<int>(values[0]), .amplitude = values[1], .phase = values[2]});
   }

@@ -75,9 +75,13 @@ double LargestTimestep(double stiffness, double inertia) {
 }
 
 double SlipCell(double load_angle, double cell) {
-  constexpr double kThreshold = 1.25 * std::numbers::pi;  // π plus a margin of π/4
-  while (load_angle - kTwoPi * cell > kThreshold) cell += 1;
-  while (load_angle - kTwoPi * cell < -kThreshold) cell -= 1;
+  constexpr double kThreshold = 0.625;  // cycles: 5π/4 over 2π, π plus a margin of π/4
+  // In closed form, not cycle by cycle: an absurd command (1e9 rad) must not loop 1e8 times, and
+  // a non-finite one leaves the count where it was.
+  const double x = load_angle / kTwoPi - cell;  // cycles from the current cell's centre
+  if (!std::isfinite(x)) return cell;
+  if (x > kThreshold) return cell + std::ceil(x - kThreshold);
+  if (x < -kThreshold) return cell - std::ceil(-x - kThreshold);
   return cell;
 }
 

@@ -76,7 +76,7 @@ double LargestTimestep(double stiffness, double inertia);
 /// The electrical cycle k (δ ≈ 2π·k) a rotor at load angle δ sits in, given the cycle it was in:
 /// it moves on only when δ is more than 5π/4 from 2π·k, past the unstable equilibrium at ±π with
 /// a margin, so that a rotor hovering near ±π (at its pull-out torque) does not count slips back
-/// and forth. Any number of cycles may pass in one call.
+/// and forth. Any number of cycles may pass in one call; a non-finite δ keeps the cell.
 double SlipCell(double load_angle, double cell);
 
 /// The drive's own state, the same for every controller, as plain doubles. All zero = "not

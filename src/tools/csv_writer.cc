@@ -9,10 +9,30 @@
 
 namespace mjstepper::tools {
 
+void CheckOutputPath(const std::string& path) {
+  if (path.empty()) throw std::runtime_error("an output path is empty");
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error)) {
+    throw std::runtime_error(fmt::format("cannot write {}: it is a directory", path));
+  }
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  if (!parent.empty() && !std::filesystem::create_directories(parent, error) && error) {
+    throw std::runtime_error(fmt::format("cannot write {}: {}", path, error.message()));
+  }
+}
+
+void MoveIntoPlace(const std::string& tmp, const std::string& path) {
+  std::error_code error;
+  std::filesystem::rename(tmp, path, error);
+  if (error) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error(fmt::format("cannot write {}: {}", path, error.message()));
+  }
+}
+
 CsvWriter::CsvWriter(std::string path, const std::vector<std::string>& header, int digits)
     : path_(std::move(path)), tmp_path_(path_ + ".tmp"), digits_(digits) {
-  const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
-  if (!parent.empty()) std::filesystem::create_directories(parent);
+  CheckOutputPath(path_);
   file_ = std::fopen(tmp_path_.c_str(), "w");
   if (file_ == nullptr) throw std::runtime_error(fmt::format("cannot write {}", tmp_path_));
   for (size_t i = 0; i < header.size(); ++i) {
@@ -48,7 +68,7 @@ void CsvWriter::Commit() {
     std::remove(tmp_path_.c_str());
     throw std::runtime_error(fmt::format("error writing {}", tmp_path_));
   }
-  std::filesystem::rename(tmp_path_, path_);
+  MoveIntoPlace(tmp_path_, path_);
 }
 
 }  // namespace mjstepper::tools

@@ -10,6 +10,13 @@
 
 namespace mjstepper::tools {
 
+/// Throws std::runtime_error naming `path` when a file cannot be written there: an existing
+/// directory, or a parent that cannot be made. Called before long runs, so they fail at once.
+void CheckOutputPath(const std::string& path);
+
+/// Renames the finished `tmp` onto `path`; on failure removes `tmp` and throws naming `path`.
+void MoveIntoPlace(const std::string& tmp, const std::string& path);
+
 class CsvWriter {
  public:
   /// Throws std::runtime_error when the temporary file cannot be created. `digits`: significant

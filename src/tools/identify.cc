@@ -60,7 +60,11 @@ Identified Identify(const IdentifyOptions& o) {
     const long settle = std::lround(o.settle / h), total = settle + std::lround(o.measure / h);
     for (long k = 0; k < total; ++k) {
       d->ctrl[m->actuator_ctrladr[dyno]] = o.speeds[i];
+      const double t = d->time;
       mj_step(m, d);
+      if (const std::string unstable = InstabilityMessage(d, t); !unstable.empty()) {
+        throw std::runtime_error(unstable);
+      }
       if (k < settle) continue;
       // After mj_step, actuator_force and sensordata describe the step's start.
       static const int kThetaMeas = SignalIndex("theta_meas");

@@ -19,6 +19,7 @@
 #include "core/attributes.h"
 #include "core/signals.h"
 #include "core/units.h"
+#include "csv_writer.h"
 #include "identify.h"
 #include "plot.h"
 #include "runner.h"
@@ -129,7 +130,7 @@ int WriteTables(const std::string& path) {
     out << text;
     if (!out.flush()) throw std::runtime_error("cannot write " + path + ".tmp");
   }
-  std::filesystem::rename(path + ".tmp", path);  // never half-written
+  MoveIntoPlace(path + ".tmp", path);  // never half-written
   fmt::print("wrote {}\n", path);
   return 0;
 }
@@ -320,6 +321,7 @@ int main(int argc, char** argv) {
       if (!run_plot.empty() && run.log.empty()) {
         throw std::invalid_argument("--plot needs --log: the plot is drawn from the log");
       }
+      if (!run_plot.empty()) CheckOutputPath(run_plot);  // before the run, not after it
       const RunResult result = Run(run, std::cerr);
       PrintSummary(result, run.log, std::cout);
       if (!run_plot.empty()) {

@@ -9,6 +9,8 @@
 
 namespace mjstepper::tools {
 
+// Owns what it has made, and frees exactly that: a constructor that throws halfway (no GL, a bad
+// camera) leaks neither the GL context nor MuJoCo's scene and GL objects.
 struct OffscreenRenderer::Context {
   OSMesaContext osmesa = nullptr;
   std::vector<unsigned char> window;  // OSMesa's own (small) colour buffer; we render offscreen
@@ -17,21 +19,45 @@ struct OffscreenRenderer::Context {
   mjvCamera camera;
   mjvOption option;
   mjrContext render;
+  bool scene_made = false;
+  bool render_made = false;
+
+  Context() {
+    mjv_defaultScene(&scene);
+    mjv_defaultCamera(&camera);
+    mjv_defaultOption(&option);
+    mjr_defaultContext(&render);
+  }
+  ~Context() {
+    if (render_made) mjr_freeContext(&render);  // needs its GL context, still current here
+    if (scene_made) mjv_freeScene(&scene);
+    if (sized_model != nullptr) mj_deleteModel(sized_model);
+    if (osmesa != nullptr) OSMesaDestroyContext(osmesa);
+  }
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
 };
 
 OffscreenRenderer::OffscreenRenderer(const mjModel* m, const RendererOptions& options)
-    : options_(options), model_(m), context_(std::make_unique<Context>()) {
+    : options_(options), model_(m) {
+  // What can be checked without GL is checked first.
   if (options.width < 16 || options.height < 16 || options.width > 8192 || options.height > 8192) {
     throw std::runtime_error(fmt::format("render size {}x{}: each side must be in [16, 8192]",
                                          options.width, options.height));
   }
+  const int camera_id = options.camera.empty() ? -1
+                                               : mj_name2id(m, mjOBJ_CAMERA, options.camera.c_str());
+  if (!options.camera.empty() && camera_id < 0) {
+    throw std::runtime_error(
+        fmt::format("--camera {}: the model has no camera of that name", options.camera));
+  }
+  context_ = std::make_unique<Context>();
   Context& c = *context_;
   // 1. A software GL context, made current before MuJoCo creates its GL objects.
   c.osmesa = OSMesaCreateContextExt(OSMESA_RGBA, 24, 8, 0, nullptr);
   if (c.osmesa == nullptr) throw std::runtime_error("OSMesaCreateContextExt failed");
   c.window.resize(64 * 64 * 4);
   if (!OSMesaMakeCurrent(c.osmesa, c.window.data(), GL_UNSIGNED_BYTE, 64, 64)) {
-    OSMesaDestroyContext(c.osmesa);
     throw std::runtime_error("OSMesaMakeCurrent failed");
   }
   // 2. MuJoCo's offscreen framebuffer is sized from the model's visual/global: use a copy sized to
@@ -43,43 +69,30 @@ OffscreenRenderer::OffscreenRenderer(const mjModel* m, const RendererOptions& op
   // the same at video sizes and render about three times faster.
   c.sized_model->vis.quality.offsamples = std::min(c.sized_model->vis.quality.offsamples, 0);
   c.sized_model->vis.quality.shadowsize = std::min(c.sized_model->vis.quality.shadowsize, 1024);
-  mjv_defaultScene(&c.scene);
-  mjv_defaultCamera(&c.camera);
-  mjv_defaultOption(&c.option);
-  mjr_defaultContext(&c.render);
   mjv_makeScene(m, &c.scene, 2000);
+  c.scene_made = true;
   // Text in proportion to the frame: 50 % below 640 pixels wide, 100 % to 1600, 150 % above.
   const int font = options.width < 640    ? mjFONTSCALE_50
                    : options.width < 1600 ? mjFONTSCALE_100
                                           : mjFONTSCALE_150;
   mjr_makeContext(c.sized_model, &c.render, font);
+  c.render_made = true;
   mjr_setBuffer(mjFB_OFFSCREEN, &c.render);
   if (c.render.currentBuffer != mjFB_OFFSCREEN) {
     throw std::runtime_error("MuJoCo's offscreen framebuffer is not available in this GL context");
   }
   // 3. The camera: a named one, or the free camera looking at the whole model.
-  if (options.camera.empty()) {
+  if (camera_id < 0) {
     mjv_defaultFreeCamera(m, &c.camera);
   } else {
-    const int id = mj_name2id(m, mjOBJ_CAMERA, options.camera.c_str());
-    if (id < 0) {
-      throw std::runtime_error(
-          fmt::format("--camera {}: the model has no camera of that name", options.camera));
-    }
     c.camera.type = mjCAMERA_FIXED;
-    c.camera.fixedcamid = id;
+    c.camera.fixedcamid = camera_id;
   }
   bottom_up_.resize(3 * options.width * options.height);
   top_down_.resize(bottom_up_.size());
 }
 
-OffscreenRenderer::~OffscreenRenderer() {
-  Context& c = *context_;
-  mjr_freeContext(&c.render);
-  mjv_freeScene(&c.scene);
-  mj_deleteModel(c.sized_model);
-  OSMesaDestroyContext(c.osmesa);
-}
+OffscreenRenderer::~OffscreenRenderer() = default;
 
 void OffscreenRenderer::RenderScene(mjData* d) {
   Context& c = *context_;

@@ -76,6 +76,15 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     const auto it = options.ctrl.find(s.name);
     profiles.push_back(
         CommandProfile::Parse(it != options.ctrl.end() ? it->second : "constant(0rad/s)"));
+    // A velocity-input drive integrates its ctrl: an angle target would be reduced to its slope
+    // (constant(0.5rad) to standing still), silently.
+    if (s.config.input == InputMode::kVelocity && profiles.back().absolute_angle()) {
+      throw std::invalid_argument(fmt::format(
+          "--ctrl {}={}: an angle profile needs a stepper with input = position, and '{}' takes "
+          "a speed (input = velocity); give a speed profile such as constant(100rpm), or set "
+          "{}.input=position",
+          s.name, profiles.back().text(), s.name, s.name));
+    }
     theta_start.push_back(d->actuator_length[s.outadr]);
   }
   for (const auto& [name, text] : options.ctrl) {
@@ -129,6 +138,13 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     static const int kCurrentA = SignalIndex("current_a");
     static const int kCurrentB = SignalIndex("current_b");
     mj_step(m, d);
+    // MuJoCo resets the whole simulation when qpos, qvel or qacc turn bad, and counts it: what
+    // followed would be a run from qpos0 reported as this one.
+    if (const std::string unstable = InstabilityMessage(d, t); !unstable.empty()) {
+      if (csv) csv->Commit();  // the rows up to the step that went bad, for diagnosis
+      throw std::runtime_error(
+          csv ? fmt::format("{} (the log {} ends there)", unstable, options.log) : unstable);
+    }
     // After mj_step, actuator_length/velocity and sensordata describe the step's start, time t.
     row.assign(1, t);
     for (size_t i = 0; i < sm.steppers.size(); ++i) {

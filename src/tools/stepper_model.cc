@@ -166,6 +166,19 @@ StepperModel LoadStepperModel(const std::string& path,
   return out;
 }
 
+std::string InstabilityMessage(const mjData* d, double t) {
+  for (const auto& [w, what] : {std::pair{mjWARN_BADQPOS, "qpos"}, std::pair{mjWARN_BADQVEL, "qvel"},
+                                std::pair{mjWARN_BADQACC, "qacc"}}) {
+    if (d->warning[w].number > 0) {
+      return fmt::format(
+          "the simulation went unstable at t = {:.6g} s: MuJoCo found a bad {} in dof {} and "
+          "reset it; try a smaller timestep, or check the model's stiffness, masses and ctrl",
+          t, what, d->warning[w].lastinfo);
+    }
+  }
+  return "";
+}
+
 void SetLoadTorque(mjModel* m, const std::string& name, double torque) {
   const std::string what = fmt::format("--load {}={}", name, torque);
   const int id = mj_name2id(m, mjOBJ_ACTUATOR, name.c_str());

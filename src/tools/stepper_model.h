@@ -47,6 +47,10 @@ void LoadPluginLibrary();
 StepperModel LoadStepperModel(const std::string& path,
                               const std::vector<ConfigOverride>& overrides = {});
 
+/// "" while the run is sound; else what MuJoCo found when it reset the simulation (a bad qpos,
+/// qvel or qacc: mjWARN_BADQPOS/QVEL/QACC, counted in d->warning), at time t (s).
+std::string InstabilityMessage(const mjData* d, double t);
+
 /// Sets the constant load torque τl (N·m) of the load actuator `name`: a non-plugin actuator with
 /// a fixed zero gain and an affine bias (plugin/README.md, "Load torque"), whose force is then
 /// biasprm[0] = −τl, against positive motion whatever the speed (Kim's τl, S-7). Throws

@@ -7,9 +7,15 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <exception>
+#include <fstream>
 #include <functional>
+#include <iterator>
+#include <mutex>
 #include <numbers>
 #include <ostream>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 
@@ -51,7 +57,11 @@ struct SpeedRun {
   void Step() {
     d->ctrl[s.ctrladr] = profile.ControlForStep(d->time, m->opt.timestep, s.config.input,
                                                 theta_start);
+    const double t = d->time;
     mj_step(m, d);
+    if (const std::string unstable = InstabilityMessage(d, t); !unstable.empty()) {
+      throw std::runtime_error(fmt::format("the run at {:.6g} rad/s: {}", profile.Speed(t), unstable));
+    }
   }
 
   const mjModel* m;
@@ -147,23 +157,36 @@ const StepperActuator& FindTarget(const StepperModel& sm, const std::string& act
 void ParallelFor(size_t n, int threads, bool show_progress, const char* what,
                  std::ostream& progress, const std::function<void(size_t)>& run) {
   std::atomic<size_t> next{0}, done{0};
+  std::atomic<bool> failed{false};
+  std::exception_ptr error;  // the first run's error, rethrown here once every worker stopped
+  std::mutex error_mutex;
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
   const size_t workers = std::min<size_t>(threads > 0 ? threads : cores, n);
   {
     std::vector<std::jthread> pool;
     for (size_t w = 0; w < workers; ++w) {
       pool.emplace_back([&] {
-        for (size_t i = next++; i < n; i = next++) {
-          run(i);
+        for (size_t i = next++; i < n && !failed; i = next++) {
+          try {
+            run(i);
+          } catch (...) {
+            const std::lock_guard lock(error_mutex);
+            if (!error) error = std::current_exception();
+            failed = true;
+          }
           ++done;
         }
       });
     }
-    while (show_progress && done < n) {
+    while (show_progress && done < n && !failed) {
       fmt::print(progress, "\r  {}: {}/{} speeds ({} threads)", what, done.load(), n, workers);
       progress.flush();
       std::this_thread::sleep_for(std::chrono::milliseconds(250));
     }
+  }
+  if (error) {
+    if (show_progress) fmt::print(progress, "\n");
+    std::rethrow_exception(error);
   }
   if (show_progress) {
     fmt::print(progress, "\r  {0}: {1}/{1} speeds ({2} threads)\n", what, n, workers);
@@ -315,13 +338,18 @@ void WriteMapCsv(const std::string& path, const std::string& parameter,
   csv.Commit();
 }
 
+namespace {
+const char* const kSweepHeader[] = {"speed[r/min]",
+                                    "speed[rad/s]",
+                                    "velocity_error_rms[r/min]",
+                                    "velocity_error_peak_to_peak[r/min]",
+                                    "dominant_frequency[Hz]",
+                                    "lost_steps[full steps]"};
+}  // namespace
+
 void WriteSweepCsv(const std::string& path, const std::vector<SweepPoint>& points) {
   // Every digit (a few rows): the Python package's Ray sweep is checked against it to 1e-12.
-  CsvWriter csv(path,
-                {"speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
-                 "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]",
-                 "lost_steps[full steps]"},
-                17);
+  CsvWriter csv(path, {std::begin(kSweepHeader), std::end(kSweepHeader)}, 17);
   for (const SweepPoint& p : points) {
     const double row[] = {RadPerSecToRpm(p.speed),     p.speed,
                           RadPerSecToRpm(p.rms_error), RadPerSecToRpm(p.peak_to_peak_error),
@@ -329,6 +357,36 @@ void WriteSweepCsv(const std::string& path, const std::vector<SweepPoint>& point
     csv.Row(row);
   }
   csv.Commit();
+}
+
+std::vector<SweepPoint> ReadSweepCsv(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::string header;
+  for (const char* name : kSweepHeader) {
+    if (!header.empty()) header += ',';
+    header += name;
+  }
+  if (!std::getline(in, line) || line != header) {
+    throw std::runtime_error(fmt::format("{}: not a sweep CSV (expected the header {})", path,
+                                         header));
+  }
+  std::vector<SweepPoint> points;
+  while (std::getline(in, line)) {
+    double v[std::size(kSweepHeader)];
+    std::istringstream fields(line);
+    for (double& x : v) {
+      std::string field;
+      std::getline(fields, field, ',');
+      x = std::strtod(field.c_str(), nullptr);
+    }
+    points.push_back({.speed = v[1],
+                      .rms_error = RpmToRadPerSec(v[2]),
+                      .peak_to_peak_error = RpmToRadPerSec(v[3]),
+                      .dominant_frequency = v[4],
+                      .lost_steps = v[5]});
+  }
+  return points;
 }
 
 }  // namespace mjstepper::tools

@@ -84,6 +84,8 @@ std::vector<PullOutPoint> PullOut(const PullOutOptions& options, std::ostream& p
 /// CSVs with a header naming units, written to path.tmp and renamed.
 void WritePullOutCsv(const std::string& path, const std::vector<PullOutPoint>& points);
 void WriteSweepCsv(const std::string& path, const std::vector<SweepPoint>& points);
+/// The points of a CSV written by WriteSweepCsv (`mjstepper sweep`); throws naming the file.
+std::vector<SweepPoint> ReadSweepCsv(const std::string& path);
 void WriteMapCsv(const std::string& path, const std::string& parameter,
                  const std::vector<MapPoint>& points);
 

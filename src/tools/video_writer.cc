@@ -4,15 +4,15 @@
 #include <png.h>
 
 #include <cstdio>
-#include <filesystem>
 #include <stdexcept>
+
+#include "csv_writer.h"
 
 namespace mjstepper::tools {
 
 VideoWriter::VideoWriter(std::string path, int width, int height, double fps)
     : path_(std::move(path)), tmp_path_(path_ + ".tmp.mp4"), width_(width), height_(height) {
-  const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
-  if (!parent.empty()) std::filesystem::create_directories(parent);
+  CheckOutputPath(path_);
   // yuv420p needs even sizes: the scale filter rounds down by at most one pixel.
   const std::string command = fmt::format(
       "ffmpeg -loglevel error -y -f rawvideo -pix_fmt rgb24 -s {}x{} -r {} -i - "
@@ -44,7 +44,7 @@ void VideoWriter::Finish() {
     std::remove(tmp_path_.c_str());
     throw std::runtime_error(fmt::format("ffmpeg failed writing {} (status {})", path_, status));
   }
-  std::filesystem::rename(tmp_path_, path_);
+  MoveIntoPlace(tmp_path_, path_);
 }
 
 void WritePng(const std::string& path, const std::vector<std::uint8_t>& rgb, int width,
@@ -60,7 +60,7 @@ void WritePng(const std::string& path, const std::vector<std::uint8_t>& rgb, int
     std::remove(tmp.c_str());
     throw std::runtime_error(fmt::format("cannot write {}: {}", path, image.message));
   }
-  std::filesystem::rename(tmp, path);
+  MoveIntoPlace(tmp, path);
 }
 
 }  // namespace mjstepper::tools

@@ -343,6 +343,22 @@ TEST(Drive, LostStepsCountWholeElectricalCycles) {
   }
 }
 
+// The slip counter in closed form: hysteresis of 5π/4 either way, any number of cycles in one
+// call, and an absurd (1e12 rad: the cycle-by-cycle count took minutes) or non-finite load
+// angle answered at once, the latter keeping the count.
+TEST(Drive, SlipCellIsClosedFormAndKeepsItsCountOnNonFiniteAngles) {
+  constexpr double kPi = std::numbers::pi;
+  EXPECT_EQ(SlipCell(1.2 * kPi, 0), 0);    // inside the margin
+  EXPECT_EQ(SlipCell(1.3 * kPi, 0), 1);    // past 5π/4: the next cycle
+  EXPECT_EQ(SlipCell(0.8 * kPi, 1), 1);    // back within 5π/4 of 2π: stays
+  EXPECT_EQ(SlipCell(-1.3 * kPi, 0), -1);  // and the other way
+  EXPECT_EQ(SlipCell(2 * kPi * 7 + 0.1, 0), 7);
+  EXPECT_EQ(SlipCell(2 * kPi * 1e11, 0), 1e11);
+  EXPECT_EQ(SlipCell(std::nan(""), 3), 3);
+  EXPECT_EQ(SlipCell(HUGE_VAL, 3), 3);
+  EXPECT_EQ(SlipCell(-HUGE_VAL, 3), 3);
+}
+
 TEST(Drive, ValidateNamesFieldAndValue) {
   DriveConfig c = TsuiConfig(kCurrent, InputMode::kPosition);
   c.compute_delay = 60e-6;

@@ -15,6 +15,7 @@
 namespace mjstepper::plugin {
 namespace {
 
+using ::testing::AllOf;
 using ::testing::HasSubstr;
 
 std::variant<DriveConfig, std::string> ParseMap(const std::map<std::string, std::string>& kv) {
@@ -107,6 +108,32 @@ TEST(Config, ProfileNeedsPositionInput) {
   const auto limits = ParseMap({{"profile_speed", "3"}});
   ASSERT_TRUE(std::holds_alternative<std::string>(limits));
   EXPECT_THAT(std::get<std::string>(limits), HasSubstr("has no effect without profile"));
+}
+
+// Finite but absurd numbers the fuzzer (tests/fuzz) found turning the drive's state to NaN within
+// its first steps are refused, naming the attribute, the value and the range; and foc, whose J
+// defaults to the rotor's inertia and divides by it, needs ff_inertia when rotor_inertia is 0.
+TEST(Config, AbsurdMagnitudesAndAZeroInertiaFail) {
+  const std::map<std::string, std::string> found[] = {
+      {{"resistance", "1e-293"}},
+      {{"inductance", "4.9e-320"}},
+      {{"torque_constant", "5.6e265"}},
+      {{"kp", "1.7e308"}},
+      {{"ki", "1.4e308"}},
+      {{"drive", "foc"}, {"ff_load_torque", "-1.7e308"}},
+      {{"drive", "voltage_microstep"}, {"resistance", "1.4e308"}}};
+  for (const auto& config : found) {
+    const auto parsed = ParseMap(config);
+    ASSERT_TRUE(std::holds_alternative<std::string>(parsed)) << config.rbegin()->first;
+    EXPECT_THAT(std::get<std::string>(parsed),
+                AllOf(HasSubstr(config.rbegin()->first + " = \"" + config.rbegin()->second),
+                      HasSubstr("must be 0 or between 1e-12 and 1e12 in magnitude")));
+  }
+  const auto foc = ParseMap({{"drive", "foc"}, {"rotor_inertia", "0"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(foc));
+  EXPECT_THAT(std::get<std::string>(foc), AllOf(HasSubstr("ff_inertia"), HasSubstr("no default")));
+  EXPECT_TRUE(std::holds_alternative<DriveConfig>(
+      ParseMap({{"drive", "foc"}, {"rotor_inertia", "0"}, {"ff_inertia", "4.8e-5"}})));
 }
 
 TEST(Config, KimControllersAndGainSets) {

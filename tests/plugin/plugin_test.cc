@@ -2,8 +2,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -21,6 +23,13 @@ using ::testing::HasSubstr;
 
 std::string VelocityTsui(const std::string& name = "m1", const std::string& joint = "j1") {
   return TsuiActuator(name, joint, Config("input", "velocity"));
+}
+
+// One velocity Tsui rotor "m1" with a signal probe "s" on it.
+std::string ProbedVelocityRotor() {
+  return RotorModel(
+      VelocityTsui(), "",
+      R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)");
 }
 
 // A speed ramp that crosses the 42.5 r/min resonance, so that states are far from trivial.
@@ -57,9 +66,7 @@ TEST(StepperPlugin, LoadsFromMjcf) {
 // speed over the last 0.1 s is the command (a synchronous motor: no slip, ±0.5 % for the residual
 // oscillation at the window's ends) and no step is lost.
 TEST(StepperPlugin, RotorFollowsVelocityCommand) {
-  const ModelPtr m = LoadModel(RotorModel(
-      VelocityTsui(), "",
-      R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  const ModelPtr m = LoadModel(ProbedVelocityRotor());
   ASSERT_TRUE(m);
   const DataPtr d(mj_makeData(m.get()));
   Step(m.get(), d.get(), 4000);  // 0.2 s
@@ -212,9 +219,7 @@ TEST(StepperPlugin, OneDataPerThreadMatchesSerial) {
 // The signal sensor reports the drive's state and what MuJoCo applied: at rest on θ = 0 with the
 // Tsui drive, ia = 1.9 A, ib = 0, id = 1.9 A, and torque_total equals actuator_force.
 TEST(StepperPlugin, SignalSensorReportsDriveState) {
-  const ModelPtr m = LoadModel(RotorModel(
-      VelocityTsui(), "",
-      R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  const ModelPtr m = LoadModel(ProbedVelocityRotor());
   ASSERT_TRUE(m);
   EXPECT_EQ(m->sensor_dim[0], kNumSignals);
   const DataPtr d(mj_makeData(m.get()));
@@ -345,6 +350,27 @@ TEST(StepperPlugin, MissingRotorInertiaFailsNamingTheArmature) {
       << error;
 }
 
+// A NaN or absurd ctrl is not a command: the drive keeps its state finite (holding, in velocity
+// mode stopping), MuJoCo's own bad-ctrl warning counts it (once per bad step), and the
+// simulation is not reset.
+TEST(StepperPlugin, BadCtrlKeepsTheDriveFiniteAndWarns) {
+  const ModelPtr m = LoadModel(ProbedVelocityRotor());
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  for (double bad : {std::nan(""), 1e12, -HUGE_VAL}) {
+    for (int k = 0; k < 100; ++k) {
+      d->ctrl[0] = k == 50 ? bad : 10.0;  // one bad step in a run at 10 rad/s
+      mj_step(m.get(), d.get());
+    }
+  }
+  mj_forward(m.get(), d.get());
+  for (int i = 0; i < kNumSignals; ++i) EXPECT_TRUE(std::isfinite(d->sensordata[i])) << i;
+  EXPECT_EQ(d->warning[mjWARN_BADCTRL].number, 3);
+  EXPECT_EQ(d->warning[mjWARN_BADQACC].number, 0);  // no reset
+  EXPECT_NEAR(d->time, 300 * 5e-5, 1e-12);           // time ran on: nothing was reset
+  EXPECT_EQ(d->sensordata[kLostSteps], 0.0);
+}
+
 // gear = 0 would freeze the rotor and report a force on nothing: a load error naming the gear.
 TEST(StepperPlugin, ZeroGearFailsLoad) {
   std::string error;
@@ -457,6 +483,70 @@ INSTANTIATE_TEST_SUITE_P(
     [](const ::testing::TestParamInfo<BadConfig>& info) {
       return std::string(info.param.key) + "_" + std::to_string(info.index);
     });
+
+// A step runs every interrupt in it, and MuJoCo's compiler steps once while loading: 1e-12 s took
+// 18 s to load (5e7 interrupts) and 1e-9 s made each step 0.1 s. Now a load error names the
+// attribute, its value and the least period the timestep (50 µs here) allows.
+TEST(StepperPlugin, InterruptsPerStepAreBounded) {
+  for (const char* period : {"1e-12", "1e-9"}) {
+    std::string error;
+    const auto start = std::chrono::steady_clock::now();
+    const ModelPtr m = LoadModel(
+        RotorModel(TsuiActuator("shaft", "j1",
+                                Config("isr_period", period) + Config("compute_delay", "0"))),
+        &error);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_FALSE(m) << period;
+    EXPECT_THAT(error, AllOf(HasSubstr("actuator 'shaft'"),
+                             HasSubstr(std::string("isr_period = \"") + period + "\""),
+                             HasSubstr("isr_period >= 5e-09")));
+    EXPECT_LT(seconds, 5.0) << "not a bound on the work";  // (a guard, not a timing target)
+  }
+  // 10 000 interrupts per step still load.
+  EXPECT_TRUE(LoadModel(RotorModel(TsuiActuator(
+      "shaft", "j1", Config("isr_period", "5e-9") + Config("compute_delay", "0")))));
+}
+
+// A timestep raised past the bound after loading (which would refuse it) is not refused mid-run,
+// but said, once, through MuJoCo's warning mechanism: each step now runs 20 000 interrupts.
+TEST(StepperPlugin, TimestepRaisedAfterLoadingIsReportedOnce) {
+  const ModelPtr m = LoadModel(RotorModel(TsuiActuator(
+      "shaft", "j1", Config("isr_period", "1e-6") + Config("compute_delay", "0"))));
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  m->opt.timestep = 0.02;
+  static std::vector<std::string> warnings;
+  warnings.clear();
+  void (*previous)(const char*) = mju_user_warning;
+  mju_user_warning = +[](const char* message) { warnings.emplace_back(message); };
+  for (int k = 0; k < 3; ++k) mj_step(m.get(), d.get());
+  mju_user_warning = previous;
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_THAT(warnings[0], AllOf(HasSubstr("timestep 0.02 s runs 20000 interrupts per step"),
+                                 HasSubstr("isr_period >= 2e-06")));
+}
+
+// When an instance's init fails, MuJoCo's mj_initPlugin (used by mj_copyData and the compiler's
+// MakeData) frees mjData without destroying the instances made before it, and LeakSanitizer found
+// the earlier Stepper lost. (4.0.0's mj_makeData destroys them itself; the others do not.) So
+// the first instance checks the later ones before any is made: its init, called as MuJoCo calls
+// it, fails and makes nothing when the second drive's 1 µs interrupt stops fitting the bound
+// after the model's timestep is raised.
+TEST(StepperPlugin, ABadLaterInstanceLeaksNoEarlierOne) {
+  const ModelPtr m = LoadModel(RotorModel(
+      TsuiActuator("good", "j1", "") +
+      TsuiActuator("bad", "j1", Config("isr_period", "1e-6") + Config("compute_delay", "0"))));
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  const uintptr_t made = d->plugin_data[0];
+  m->opt.timestep = 0.02;  // 400 interrupts per step for "good", 20 000 for "bad"
+  const mjpPlugin* plugin = mjp_getPluginAtSlot(m->plugin[0]);
+  const int live = plugin::Stepper::LiveCount();
+  EXPECT_EQ(plugin->init(m.get(), d.get(), 0), -1);
+  EXPECT_EQ(plugin::Stepper::LiveCount(), live);
+  EXPECT_EQ(d->plugin_data[0], made);  // untouched, and destroyed with d
+}
 
 TEST(StepperPlugin, UnknownAttributeFailsLoad) {
   std::string error;

@@ -39,6 +39,14 @@ std::filesystem::path TempDir() {
   return dir;
 }
 
+// The text of kModel, to edit into a variant.
+std::string ModelText() {
+  std::ifstream in(kModel);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 // A CSV's header line and its number of data rows.
 std::pair<std::string, int> HeaderAndRows(const std::string& path) {
   std::ifstream in(path);
@@ -68,6 +76,16 @@ TEST(Runner, RunWritesCsvWithUnitsAndNoTemporaryFile) {
   std::string line;
   while (std::getline(in, line)) ++rows;
   EXPECT_EQ(rows, 1000);
+}
+
+// An angle profile on a velocity-input stepper was reduced to its slope: constant(0.5rad) stood
+// still. It is refused, naming the stepper and what to do.
+TEST(Runner, AngleProfileOnAVelocityStepperIsRefused) {
+  const Result r = RunCli("run " + kModel + " --duration 0.01 --ctrl 'shaft=constant(0.5rad)'");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, AllOf(HasSubstr("--ctrl shaft=constant(0.5rad)"),
+                              HasSubstr("needs a stepper with input = position"),
+                              HasSubstr("shaft.input=position")));
 }
 
 TEST(Runner, InfiniteDurationIsRefused) {
@@ -161,10 +179,7 @@ TEST(Runner, InfoGivesNaturalFrequencyAndResonantSpeeds) {
 // info says so and names the largest step; the plugin warns once at load (for the rotor alone,
 // through MuJoCo's warning mechanism); run refuses to start unless given --allow-coarse.
 TEST(Runner, CoarseTimestepIsFoundAndEnforced) {
-  std::ifstream in(kModel);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string xml = text.str();
+  std::string xml = ModelText();
   xml.replace(xml.find("timestep=\"5e-5\""), 15, "timestep=\"1e-3\"");
   const auto path = TempDir() / "coarse.xml";
   std::ofstream(path) << xml;
@@ -184,6 +199,66 @@ TEST(Runner, CoarseTimestepIsFoundAndEnforced) {
                               HasSubstr("--allow-coarse")));
   r = RunCli("run " + path.string() + " --duration 0.05 --quiet --allow-coarse");
   EXPECT_EQ(r.status, 0) << r.output;
+}
+
+// A model that blows up: a joint spring of 1e9 N·m/rad on the rotor under explicit Euler (ωn·h
+// = 250). MuJoCo resets such a simulation and counts a warning; the run used to go on from qpos0
+// and exit 0 with a summary of the wreck. Now it stops there, names the time and the field, keeps
+// the log up to that step, and exits non-zero.
+TEST(Runner, UnstableRunFailsAndSaysWhen) {
+  std::string xml = ModelText();
+  xml.replace(xml.find("integrator=\"implicitfast\""), 25, "integrator=\"Euler\"");
+  xml.replace(xml.find("frictionloss="), 0, "stiffness=\"1e9\" ");
+  const auto path = TempDir() / "unstable.xml";
+  std::ofstream(path) << xml;
+  const auto csv = TempDir() / "unstable.csv";
+  const Result r = RunCli("run " + path.string() +
+                          " --duration 0.05 --quiet --allow-coarse --ctrl 'shaft=constant(60rpm)'"
+                          " --log " + csv.string());
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, AllOf(HasSubstr("went unstable at t = "), HasSubstr("reset"),
+                              HasSubstr("smaller timestep")));
+  EXPECT_THAT(r.output, ::testing::Not(HasSubstr("steps,")));  // no summary of the wreck
+  const auto [header, rows] = HeaderAndRows(csv.string());
+  EXPECT_GT(rows, 0);
+  EXPECT_LT(rows, 1000);  // ends at the step that went bad
+  EXPECT_FALSE(std::filesystem::exists(csv.string() + ".tmp"));
+}
+
+// Output paths that cannot be written fail at once, before the run, naming the path, and leave
+// no FILE.tmp behind (a log onto an existing directory used to run, then leave ramp.tmp).
+TEST(Runner, UnwritableOutputFailsBeforeTheRunAndLeavesNothing) {
+  const auto dir = TempDir() / "a_directory";
+  std::filesystem::create_directories(dir);
+  Result r = RunCli("run " + kModel + " --duration 0.05 --quiet --log " + dir.string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, AllOf(HasSubstr(dir.string()), HasSubstr("is a directory")));
+  EXPECT_THAT(r.output, ::testing::Not(HasSubstr("steps,")));
+  EXPECT_FALSE(std::filesystem::exists(dir.string() + ".tmp"));
+  const auto csv = TempDir() / "for_plot.csv";
+  r = RunCli("run " + kModel + " --duration 0.05 --quiet --log " + csv.string() + " --plot " +
+             dir.string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, AllOf(HasSubstr(dir.string()), HasSubstr("is a directory")));
+  EXPECT_THAT(r.output, ::testing::Not(HasSubstr("steps,")));
+}
+
+// A plot that fails in the plot script says why in one line, not a Python traceback.
+TEST(Runner, PlotFailureIsOneLineNotATraceback) {
+  const auto csv = TempDir() / "plot_me.csv";
+  Result r = RunCli("run " + kModel + " --duration 0.01 --quiet --log " + csv.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = RunCli("plot " + csv.string() + " --out /proc/mjstepper/plot.png");  // cannot be made
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, AllOf(HasSubstr("mjstepper plot:"), HasSubstr("/proc/mjstepper"),
+                              HasSubstr("plotting /proc/mjstepper/plot.png failed")));
+  EXPECT_THAT(r.output, ::testing::Not(HasSubstr("Traceback")));
+  const auto garbage = TempDir() / "garbage.csv";
+  std::ofstream(garbage) << "time[s],x\n0,not a number\n";
+  r = RunCli("plot " + garbage.string() + " --out " + (TempDir() / "garbage.png").string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, AllOf(HasSubstr("mjstepper plot: ValueError"), HasSubstr("not a number")));
+  EXPECT_THAT(r.output, ::testing::Not(HasSubstr("Traceback")));
 }
 
 }  // namespace
@@ -280,10 +355,7 @@ TEST(Map, WritesCsvAndHeatMapAndNamesBadParameters) {
 // more than once and collects every attempt's message; the actuator's own instance is named by
 // the actuator).
 TEST(Runner, LoadErrorIsPrintedOnce) {
-  std::ifstream in(kModel);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string xml = text.str();
+  std::string xml = ModelText();
   xml.replace(xml.find("armature=\"0.36e-4\""), 18, "");
   const auto path = TempDir() / "no_armature.xml";
   std::ofstream(path) << xml;
@@ -298,10 +370,7 @@ TEST(Runner, LoadErrorIsPrintedOnce) {
 // --keyframe starts the run from a keyframe (here the rotor turned to 1 rad at t = 2 s): the
 // drive starts at rest on the rotor there and holds it; the profiles start with the run.
 TEST(Runner, KeyframeSetsTheStart) {
-  std::ifstream in(kModel);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string xml = text.str();
+  std::string xml = ModelText();
   xml.replace(xml.rfind("</mujoco>"), 9,
               R"(<keyframe><key name="turned" time="2" qpos="1"/></keyframe></mujoco>)");
   const auto path = TempDir() / "keyframe.xml";

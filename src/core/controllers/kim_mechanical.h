@@ -57,6 +57,13 @@ struct KimMechanical {
   static KimMechanical FromAttributes(const AttributeSource& a, const MotorParams& motor,
                                       double k1p_default) {
     using Rule = AttributeSource::Rule;
+    // J defaults to the motor's rotor_inertia, which may be 0 (the model carries the rotor): the
+    // controller still needs its own J > 0 (foc divides by it; a NaN state, found by tests/fuzz).
+    if (!a.Raw(kAttrFfInertia) && !(motor.rotor_inertia > 0)) {
+      ThrowBad(kAttrFfInertia, "0",
+               "must be > 0; with rotor_inertia = 0 it has no default: set ff_inertia to the "
+               "rotor's (and load's) inertia (kg·m²)");
+    }
     return {.k1p = a.Real(kAttrK1p, k1p_default, Rule::kPositive),
             .k0 = a.Real(kAttrK0, 10, Rule::kNonNegative),
             .k1 = a.Real(kAttrK1, 20, Rule::kNonNegative),

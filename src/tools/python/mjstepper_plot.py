@@ -34,11 +34,17 @@ def read_csv(path):
 
 
 def save(fig, out):
-    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
     tmp = out + ".tmp.png"
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    os.replace(tmp, out)
+    try:
+        os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
+        fig.savefig(tmp, dpi=110)
+        os.replace(tmp, out)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+    finally:
+        plt.close(fig)
 
 
 def column(c, stepper, signal):
@@ -204,4 +210,10 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    try:
+        sys.exit(main(sys.argv[1:]))
+    except (OSError, ValueError, KeyError, IndexError) as e:
+        # A user's error (a path that cannot be written, a CSV that is not ours): one line, no
+        # traceback. A bug in this script still shows its traceback.
+        what = f"{e.filename}: {e.strerror}" if isinstance(e, OSError) and e.filename else e
+        sys.exit(f"mjstepper plot: {type(e).__name__}: {what}")
