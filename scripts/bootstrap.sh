@@ -9,7 +9,9 @@ here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 # Why each package is here: see README.md, "Dependencies".
 packages=(g++ cmake ninja-build pkg-config python3-venv libeigen3-dev libgtest-dev libgmock-dev
           libbenchmark-dev libcli11-dev libfmt-dev libtinyxml2-dev libosmesa6-dev libpng-dev
-          ffmpeg xvfb xauth x11-apps libgl1 libglx-mesa0 libgl1-mesa-dri)
+          ffmpeg xvfb xauth x11-apps libgl1 libglx-mesa0 libgl1-mesa-dri
+          # clang and its runtimes (libFuzzer, ASan, UBSan): the config fuzzer, tests/fuzz/run.sh
+          clang-14 libclang-rt-14-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

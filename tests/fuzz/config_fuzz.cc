@@ -1,0 +1,357 @@
+// libFuzzer target over the stepper plugin's <config> attributes (plugin/config.h) and the
+// `--ctrl ACTUATOR=PROFILE` grammar (core/command_profile.h). Built by tests/fuzz/run.sh with
+// clang, -fsanitize=fuzzer,address,undefined; no MuJoCo.
+//
+// One input is decoded (FuzzedDataProvider) into
+//   - a few attribute key/value pairs: keys from AttributeNames() (now and then an unknown one),
+//     values a known word, a number in some spelling, a harmonic list, or raw bytes;
+//   - a profile text, from the grammar's pieces or raw bytes;
+//   - a timestep, a rotor start angle and speed, and a command.
+// Properties (a violation traps, so libFuzzer reports it with the input):
+//   1. no crash, no sanitizer report, no exception escaping either parser;
+//   2. the config parser asks only for names in AttributeNames();
+//   3. a config rejection reads `name = "value": rule`, `name` an attribute, `value` the text given
+//      for it (trimmed, or the same number respelled) or, when it was not given, its default;
+//   4. a profile rejection is std::invalid_argument with a non-empty message quoting the profile;
+//   5. an accepted config builds a Drive, and unless the plugin would refuse it (more than
+//      kMaxInterruptsPerStep interrupts per timestep, plugin/stepper.cc), resting and advancing it
+//      five timesteps with a finite command leaves every state double, the torque and the signals
+//      finite.
+#include <fuzzer/FuzzedDataProvider.h>
+
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "config.h"
+#include "core/command_profile.h"
+#include "core/drive.h"
+#include "core/signals.h"
+
+#ifndef MJSTEPPER_MAX_INTERRUPTS_PER_STEP
+#error "MJSTEPPER_MAX_INTERRUPTS_PER_STEP: plugin/stepper.h's kMaxInterruptsPerStep (CMake reads it)"
+#endif
+
+namespace {
+
+using mjstepper::CommandProfile;
+using mjstepper::Drive;
+using mjstepper::DriveConfig;
+using mjstepper::DriveCoreState;
+using mjstepper::DriveState;
+using mjstepper::InputMode;
+using mjstepper::plugin::AttributeNames;
+using mjstepper::plugin::AttributeTable;
+using mjstepper::plugin::ParseStepperConfig;
+using mjstepper::plugin::StepperConfig;
+
+// Plugin's bound (plugin/stepper.h), mirrored: a config with more interrupts per step is refused.
+constexpr double kMaxInterruptsPerStep = MJSTEPPER_MAX_INTERRUPTS_PER_STEP;
+// MuJoCo's mjMAXVAL: the plugin treats a ctrl beyond it (or non-finite) as no command.
+constexpr double kMjMaxVal = 1e10;
+
+[[noreturn]] void Fail(const char* what, const std::string& detail) {
+  std::fprintf(stderr, "\nconfig_fuzz: PROPERTY VIOLATED: %s\n%s\n", what, detail.c_str());
+  std::fflush(stderr);
+  __builtin_trap();
+}
+
+// Words the parsers know (and a few near misses), so that inputs get past the choices quickly.
+constexpr const char* kWords[] = {
+    "tsui2009", "kim2016", "bodson1993", "current_microstep", "voltage_microstep",
+    "ideal_current", "servo", "identification", "stmms", "foc", "position", "velocity",
+    "h_bridge", "svpwm", "estimate", "exact", "none", "trapezoid", "scurve", "on", "off",
+    "case1", "case2", "analytic", "numeric", "", " ", "nan", "inf", "-inf", "1e999", "0x10",
+    "4,8", "+", "-", ".", "e5", "Position", "tsui2009 ", " none", "none;"};
+
+constexpr const char* kNumberFormats[] = {"%g", "%.17g", "%e", "%f", "%a", "%+g", " %g ",
+                                          "%gV", "\t%.3g\n"};
+
+// A double with every exponent reachable: small integers, decimals, or any bit pattern.
+double ConsumeNumber(FuzzedDataProvider& in) {
+  switch (in.ConsumeIntegralInRange<int>(0, 4)) {
+    case 0:
+      return in.ConsumeIntegralInRange<int>(-4, 1100);
+    case 1:
+      return in.ConsumeIntegralInRange<int>(-100000, 100000) *
+             std::pow(10.0, in.ConsumeIntegralInRange<int>(-12, 6));
+    case 2:
+      return in.ConsumeFloatingPointInRange<double>(-10.0, 100.0);
+    case 3: {
+      const double mantissa = in.ConsumeFloatingPointInRange<double>(-10.0, 10.0);
+      return mantissa * std::pow(10.0, in.ConsumeIntegralInRange<int>(-320, 308));
+    }
+    default:
+      return in.ConsumeFloatingPoint<double>();
+  }
+}
+
+std::string FormatNumber(FuzzedDataProvider& in, double value) {
+  const char* format = in.PickValueInArray(kNumberFormats);
+  char text[512];
+  std::snprintf(text, sizeof text, format, value);
+  return text;
+}
+
+std::string ConsumeHarmonics(FuzzedDataProvider& in) {
+  std::string text;
+  const int groups = in.ConsumeIntegralInRange<int>(0, 4);
+  for (int g = 0; g < groups; ++g) {
+    if (g > 0) text += in.ConsumeBool() ? "; " : ";";
+    const int fields = in.ConsumeIntegralInRange<int>(2, 4);
+    for (int f = 0; f < fields; ++f) {
+      if (f > 0) text += ' ';
+      text += f == 0 ? std::to_string(in.ConsumeIntegralInRange<int>(-1, 1001))
+                     : FormatNumber(in, ConsumeNumber(in));
+    }
+  }
+  return text;
+}
+
+std::string ConsumeValue(FuzzedDataProvider& in) {
+  switch (in.ConsumeIntegralInRange<int>(0, 3)) {
+    case 0:
+      return in.PickValueInArray(kWords);
+    case 1:
+      return FormatNumber(in, ConsumeNumber(in));
+    case 2:
+      return ConsumeHarmonics(in);
+    default:
+      return in.ConsumeRandomLengthString(48);
+  }
+}
+
+constexpr const char* kProfileNames[] = {"constant", "ramp", "trapezoid", "", "Ramp", "const"};
+constexpr const char* kUnits[] = {"rpm", "r/min", "rad/s", "rad", "deg", "s", "ms", "", "m", " rpm"};
+
+std::string ConsumeProfileText(FuzzedDataProvider& in) {
+  if (in.ConsumeIntegralInRange<int>(0, 7) == 0) return in.ConsumeRandomLengthString(64);
+  std::string text = in.PickValueInArray(kProfileNames);
+  if (in.ConsumeIntegralInRange<int>(0, 15) != 0) text += '(';
+  const int args = in.ConsumeIntegralInRange<int>(0, 5);
+  for (int i = 0; i < args; ++i) {
+    if (i > 0) text += in.ConsumeBool() ? ", " : ",";
+    text += FormatNumber(in, ConsumeNumber(in));
+    text += in.PickValueInArray(kUnits);
+  }
+  if (in.ConsumeIntegralInRange<int>(0, 15) != 0) text += ')';
+  if (in.ConsumeIntegralInRange<int>(0, 15) == 0) text += in.ConsumeRandomLengthString(8);
+  return text;
+}
+
+// The core state's fields by name, for reports.
+#define MJSTEPPER_FIELD(f) {#f, offsetof(DriveCoreState, f) / sizeof(double)}
+constexpr std::pair<const char*, size_t> kCoreFields[] = {
+    MJSTEPPER_FIELD(started),       MJSTEPPER_FIELD(theta),          MJSTEPPER_FIELD(theta_cmd),
+    MJSTEPPER_FIELD(omega_cmd),     MJSTEPPER_FIELD(current_a),      MJSTEPPER_FIELD(current_b),
+    MJSTEPPER_FIELD(voltage_a),     MJSTEPPER_FIELD(voltage_b),      MJSTEPPER_FIELD(pending_a),
+    MJSTEPPER_FIELD(pending_b),     MJSTEPPER_FIELD(pending),        MJSTEPPER_FIELD(apply_time),
+    MJSTEPPER_FIELD(next_tick),     MJSTEPPER_FIELD(anchor_tick),    MJSTEPPER_FIELD(anchor_time),
+    MJSTEPPER_FIELD(theta_meas),    MJSTEPPER_FIELD(omega_est),      MJSTEPPER_FIELD(current_ref_a),
+    MJSTEPPER_FIELD(current_ref_b), MJSTEPPER_FIELD(energy_input),   MJSTEPPER_FIELD(energy_copper),
+    MJSTEPPER_FIELD(energy_mechanical), MJSTEPPER_FIELD(rotor_cos),  MJSTEPPER_FIELD(rotor_sin),
+    MJSTEPPER_FIELD(slip_cell),     MJSTEPPER_FIELD(slip_origin),    MJSTEPPER_FIELD(last_slip_time)};
+#undef MJSTEPPER_FIELD
+static_assert(std::size(kCoreFields) == sizeof(DriveCoreState) / sizeof(double));
+
+std::string NonFinite(const DriveState& s, int stored) {
+  const double* core = reinterpret_cast<const double*>(static_cast<const DriveCoreState*>(&s));
+  std::string out = "non-finite:";
+  for (const auto& [name, index] : kCoreFields) {
+    if (!std::isfinite(core[index])) out += std::string(" ") + name + "=" + std::to_string(core[index]);
+  }
+  for (int i = 0; i < stored; ++i) {
+    if (!std::isfinite(s.unit[i])) out += " unit[" + std::to_string(i) + "]=" + std::to_string(s.unit[i]);
+  }
+  return out;
+}
+
+bool AllFinite(const double* values, int count) {
+  for (int i = 0; i < count; ++i) {
+    if (!std::isfinite(values[i])) return false;
+  }
+  return true;
+}
+
+std::string Describe(const std::map<std::string, std::string>& attributes) {
+  std::string out = "attributes:";
+  for (const auto& [key, value] : attributes) out += " " + key + "=\"" + value.c_str() + "\"";
+  return out;
+}
+
+// Property 3. `given`: what the reader returned for each name (NUL ends a value, as in C).
+void CheckRejection(const std::string& message, const std::map<std::string, std::string>& given) {
+  const std::string context = "message: " + message + "\n" + Describe(given);
+  const size_t eq = message.find(" = \"");
+  if (eq == std::string::npos) Fail("config rejection not of the form name = \"value\": rule", context);
+  const std::string name = message.substr(0, eq);
+  const mjstepper::AttributeSpec* spec = nullptr;
+  for (const mjstepper::AttributeSpec* s : AttributeTable()) {
+    if (name == s->name) spec = s;
+  }
+  if (spec == nullptr) Fail("config rejection names no attribute", context);
+  const std::string rest = message.substr(eq + 4);
+  const auto it = given.find(name);
+  // Given means a non-empty C string (AttributeSource::Raw); the parser quotes it trimmed.
+  const bool was_given = it != given.end() && it->second.c_str()[0] != '\0';
+  const std::string value = was_given ? mjstepper::Trim(it->second.c_str()) : "";
+  if (!was_given) {
+    // Not given: the rule is about this attribute's default, quoted as documented or as the
+    // number it came to (voltage_amplitude's R·I_rated, say).
+    const std::string expected = std::string(spec->default_text) + "\": ";
+    const size_t close = rest.find("\": ");
+    double quoted = 0;
+    if (rest.compare(0, expected.size(), expected) != 0 &&
+        !(close != std::string::npos && mjstepper::ParseFiniteDouble(rest.substr(0, close), &quoted))) {
+      Fail("config rejection of an attribute not given quotes neither its default nor a number",
+           context);
+    }
+    return;
+  }
+  if (rest.compare(0, value.size() + 3, value + "\": ") == 0) return;
+  // The value respelled as a number (e.g. "5.0" quoted as "5")?
+  const size_t close = rest.find("\": ");
+  double quoted = 0, written = 0;
+  if (close != std::string::npos && mjstepper::ParseFiniteDouble(rest.substr(0, close), &quoted) &&
+      mjstepper::ParseFiniteDouble(value, &written) && quoted == written) {
+    return;
+  }
+  Fail("config rejection does not quote the value given", context);
+}
+
+void CheckProfile(const std::string& text) {
+  try {
+    const CommandProfile profile = CommandProfile::Parse(text);
+    // Exercised for UB only: an absurd accepted profile may overflow to inf (the plugin then holds).
+    for (double t : {-1.0, 0.0, 1e-4, 0.3, 1.0, 1e3}) {
+      (void)profile.Speed(t);
+      (void)profile.Angle(t);
+      (void)profile.ControlForStep(t, 1e-3, InputMode::kVelocity, 0.0);
+      (void)profile.ControlForStep(t, 1e-3, InputMode::kPosition, 0.0);
+    }
+  } catch (const std::invalid_argument& e) {
+    const std::string message = e.what();
+    if (message.empty()) Fail("empty profile rejection", "profile: " + text);
+    if (message.rfind("profile \"", 0) != 0) {
+      Fail("profile rejection does not quote the profile", "profile: " + text + "\nmessage: " +
+                                                                message);
+    }
+  }
+}
+
+// The plugin's Command(): a ctrl that is not finite or beyond mjMAXVAL holds the drive.
+double PluginCommand(double ctrl, const DriveConfig& c, const DriveState* state, double theta) {
+  if (std::isfinite(ctrl) && std::abs(ctrl) <= kMjMaxVal) return ctrl;
+  if (c.input == InputMode::kVelocity) return 0.0;
+  return state != nullptr && state->started ? state->theta_cmd : theta;
+}
+
+void CheckDrive(const StepperConfig& config, FuzzedDataProvider& in, const std::string& profile_text,
+                const std::map<std::string, std::string>& given) {
+  constexpr double kTimesteps[] = {50e-6, 1e-3, 2e-3, 10e-6, 1e-6, 0.01};
+  const double h = in.PickValueInArray(kTimesteps);  // s
+  if (!(h <= kMaxInterruptsPerStep * config.drive.isr_period)) return;  // the plugin refuses it
+  const double theta0 = in.ConsumeFloatingPointInRange<double>(-100.0, 100.0);     // rad
+  const double omega = in.ConsumeFloatingPointInRange<double>(-1000.0, 1000.0);    // rad/s
+  const double ctrl = in.ConsumeFloatingPointInRange<double>(-1000.0, 1000.0);     // rad or rad/s
+  std::optional<CommandProfile> profile;
+  try {
+    profile = CommandProfile::Parse(profile_text);
+  } catch (const std::invalid_argument&) {
+  }
+
+  const Drive drive(config.drive);  // the parser validated it: this must not throw
+  const int stored = drive.layout().controller + drive.layout().profile;
+  const DriveConfig& c = drive.config();
+  auto context = [&](int step) {
+    char line[256];
+    std::snprintf(line, sizeof line, "h = %.17g, theta0 = %.17g, omega = %.17g, ctrl = %.17g, "
+                  "step %d\nprofile: ", h, theta0, omega, ctrl, step);
+    return line + profile_text + "\n" + Describe(given);
+  };
+  auto check = [&](const DriveState& s, double theta, int step) {
+    if (!AllFinite(reinterpret_cast<const double*>(static_cast<const DriveCoreState*>(&s)),
+                   sizeof(DriveCoreState) / sizeof(double)) ||
+        !AllFinite(s.unit.data(), stored)) {
+      Fail("non-finite drive state from an accepted config",
+           context(step) + "\n" + NonFinite(s, stored));
+    }
+    if (!std::isfinite(drive.Torque(s, theta))) {
+      Fail("non-finite torque from an accepted config", context(step));
+    }
+    const auto signals = mjstepper::SignalValues(drive.Signals(s, theta));
+    if (!AllFinite(signals.data(), static_cast<int>(signals.size()))) {
+      Fail("non-finite signal from an accepted config", context(step));
+    }
+  };
+
+  // The command of a step: the profile's (as the runner gives it), else the fuzzed ctrl.
+  auto ctrl_at = [&](double t) {
+    return profile ? profile->ControlForStep(t, h, c.input, theta0) : ctrl;
+  };
+  DriveState state = drive.Rest(0.0, theta0, PluginCommand(ctrl_at(0.0), c, nullptr, theta0));
+  check(state, theta0, 0);
+  double theta = theta0;
+  for (int step = 1; step <= 5; ++step) {
+    const double t0 = (step - 1) * h;
+    const double t1 = step * h;
+    const double command = PluginCommand(ctrl_at(t0), c, &state, theta);
+    theta = theta0 + omega * t1;
+    drive.Advance(&state, t0, t1, theta, command);
+    check(state, theta, step);
+    // The stored form the plugin keeps between steps.
+    std::array<double, sizeof(DriveState) / sizeof(double)> values{};
+    drive.Store(state, values.data());
+    state = drive.Load(values.data());
+  }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  FuzzedDataProvider in(data, size);
+  const std::vector<const char*>& names = AttributeNames();
+
+  std::map<std::string, std::string> attributes;
+  const int count = in.ConsumeIntegralInRange<int>(0, 10);
+  for (int i = 0; i < count; ++i) {
+    const size_t k = in.ConsumeIntegralInRange<size_t>(0, names.size());
+    const std::string key = k < names.size() ? names[k] : "unknown_" + in.ConsumeRandomLengthString(6);
+    attributes[key] = ConsumeValue(in);
+  }
+  const std::string profile_text = ConsumeProfileText(in);
+
+  // Property 2 and the reader MuJoCo gives: the value's C string, or nullptr.
+  auto read = [&](const char* name) -> const char* {
+    bool known = false;
+    for (const char* n : names) known = known || std::strcmp(n, name) == 0;
+    if (!known) Fail("the parser read a name not in AttributeNames()", name);
+    const auto it = attributes.find(name);
+    return it == attributes.end() ? nullptr : it->second.c_str();
+  };
+  // Only what the parser can see: an unknown key is MuJoCo's to refuse.
+  std::map<std::string, std::string> given;
+  for (const auto& [key, value] : attributes) {
+    if (key.rfind("unknown_", 0) != 0) given[key] = value;
+  }
+
+  const std::variant<StepperConfig, std::string> parsed = ParseStepperConfig(read);
+  if (const std::string* error = std::get_if<std::string>(&parsed)) {
+    CheckRejection(*error, given);
+  }
+  CheckProfile(profile_text);
+  if (const StepperConfig* config = std::get_if<StepperConfig>(&parsed)) {
+    CheckDrive(*config, in, profile_text, given);
+  }
+  return 0;
+}
