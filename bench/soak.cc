@@ -192,26 +192,30 @@ int main(int argc, char** argv) {
       }
     }
     for (int w = 0; w < mjNWARNING; ++w) warnings += d->warning[w].number;
-    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::fprintf(stderr, "\n");
 
     bool sound = nan_steps == 0 && warnings == 0;
-    fmt::print("soak {}: {:.3f} h simulated ({} steps of {:g} s) in {:.1f} s wall ({:.0f} ns/step), "
-               "{} copies, seed {}\n",
-               model, steps * h / 3600, steps, h, wall, 1e9 * wall / steps, copies, seed);
-    fmt::print("  resident set: {} kB at start, {} kB after 1 min simulated, {} kB at the end; "
-               "peak {} kB\n",
-               rss_start, rss_first_minute, ResidentKb(), PeakResidentKb());
+    fmt::print(
+        "soak {}: {:.3f} h simulated ({} steps of {:g} s) in {:.1f} s wall ({:.0f} ns/step), "
+        "{} copies, seed {}\n",
+        model, steps * h / 3600, steps, h, wall, 1e9 * wall / steps, copies, seed);
+    fmt::print(
+        "  resident set: {} kB at start, {} kB after 1 min simulated, {} kB at the end; "
+        "peak {} kB\n",
+        rss_start, rss_first_minute, ResidentKb(), PeakResidentKb());
     fmt::print("  steps with a NaN in qpos, qvel or sensordata: {}; MuJoCo warnings: {}\n",
                nan_steps, warnings);
     for (int s = 0; s < n; ++s) {
       const bool within = watch[s].max_current <= watch[s].bound;
       sound &= within;
-      fmt::print("  {}: max |phase current| {:.3f} A (rated {:.3g} A; bound Vbus/R = {:.3f} A: {}); "
-                 "lost steps at the end {:g}, largest |count| {:g}\n",
-                 sm.steppers[s].name, watch[s].max_current,
-                 sm.steppers[s].config.motor.rated_current, watch[s].bound,
-                 within ? "within" : "EXCEEDED", watch[s].lost_steps, watch[s].max_abs_lost);
+      fmt::print(
+          "  {}: max |phase current| {:.3f} A (rated {:.3g} A; bound Vbus/R = {:.3f} A: {}); "
+          "lost steps at the end {:g}, largest |count| {:g}\n",
+          sm.steppers[s].name, watch[s].max_current, sm.steppers[s].config.motor.rated_current,
+          watch[s].bound, within ? "within" : "EXCEEDED", watch[s].lost_steps,
+          watch[s].max_abs_lost);
     }
     fmt::print("  {}\n", sound ? "sound" : "NOT SOUND");
     return sound ? 0 : 1;

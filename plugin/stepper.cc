@@ -381,9 +381,8 @@ void RegisterStepperPlugin() {
   plugin.attributes = attributes.data();
   plugin.nstate = +[](const mjModel* m, int instance) { return Stepper::StateSize(m, instance); };
   plugin.nsensordata = +[](const mjModel*, int, int) { return static_cast<int>(kNumSignals); };
-  plugin.init = +[](const mjModel* m, mjData* d, int instance) {
-    return Stepper::Init(m, d, instance);
-  };
+  plugin.init =
+      +[](const mjModel* m, mjData* d, int instance) { return Stepper::Init(m, d, instance); };
   plugin.destroy = +[](mjData* d, int instance) {
     delete reinterpret_cast<Stepper*>(d->plugin_data[instance]);
     d->plugin_data[instance] = 0;

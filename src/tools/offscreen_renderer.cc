@@ -45,8 +45,8 @@ OffscreenRenderer::OffscreenRenderer(const mjModel* m, const RendererOptions& op
     throw std::runtime_error(fmt::format("render size {}x{}: each side must be in [16, 8192]",
                                          options.width, options.height));
   }
-  const int camera_id = options.camera.empty() ? -1
-                                               : mj_name2id(m, mjOBJ_CAMERA, options.camera.c_str());
+  const int camera_id =
+      options.camera.empty() ? -1 : mj_name2id(m, mjOBJ_CAMERA, options.camera.c_str());
   if (!options.camera.empty() && camera_id < 0) {
     throw std::runtime_error(
         fmt::format("--camera {}: the model has no camera of that name", options.camera));

@@ -39,7 +39,8 @@ void Plot(const std::string& kind, const std::vector<std::string>& csvs,
   if (!title.empty()) command += fmt::format(" --title {}", Quote(title));
   if (versus_speed) command += " --versus speed";
   if (std::system(command.c_str()) != 0) {
-    throw std::runtime_error(fmt::format("plotting {} failed (the plot script says why, above)", png));
+    throw std::runtime_error(
+        fmt::format("plotting {} failed (the plot script says why, above)", png));
   }
 }
 

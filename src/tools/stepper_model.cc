@@ -167,8 +167,9 @@ StepperModel LoadStepperModel(const std::string& path,
 }
 
 std::string InstabilityMessage(const mjData* d, double t) {
-  for (const auto& [w, what] : {std::pair{mjWARN_BADQPOS, "qpos"}, std::pair{mjWARN_BADQVEL, "qvel"},
-                                std::pair{mjWARN_BADQACC, "qacc"}}) {
+  for (const auto& [w, what] :
+       {std::pair{mjWARN_BADQPOS, "qpos"}, std::pair{mjWARN_BADQVEL, "qvel"},
+        std::pair{mjWARN_BADQACC, "qacc"}}) {
     if (d->warning[w].number > 0) {
       return fmt::format(
           "the simulation went unstable at t = {:.6g} s: MuJoCo found a bad {} in dof {} and "

@@ -60,7 +60,8 @@ struct SpeedRun {
     const double t = d->time;
     mj_step(m, d);
     if (const std::string unstable = InstabilityMessage(d, t); !unstable.empty()) {
-      throw std::runtime_error(fmt::format("the run at {:.6g} rad/s: {}", profile.Speed(t), unstable));
+      throw std::runtime_error(
+          fmt::format("the run at {:.6g} rad/s: {}", profile.Speed(t), unstable));
     }
   }
 
@@ -368,8 +369,8 @@ std::vector<SweepPoint> ReadSweepCsv(const std::string& path) {
     header += name;
   }
   if (!std::getline(in, line) || line != header) {
-    throw std::runtime_error(fmt::format("{}: not a sweep CSV (expected the header {})", path,
-                                         header));
+    throw std::runtime_error(
+        fmt::format("{}: not a sweep CSV (expected the header {})", path, header));
   }
   std::vector<SweepPoint> points;
   while (std::getline(in, line)) {

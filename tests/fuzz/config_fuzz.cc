@@ -39,7 +39,8 @@
 #include "core/signals.h"
 
 #ifndef MJSTEPPER_MAX_INTERRUPTS_PER_STEP
-#error "MJSTEPPER_MAX_INTERRUPTS_PER_STEP: plugin/stepper.h's kMaxInterruptsPerStep (CMake reads it)"
+#error \
+    "MJSTEPPER_MAX_INTERRUPTS_PER_STEP: plugin/stepper.h's kMaxInterruptsPerStep (CMake reads it)"
 #endif
 
 namespace {
@@ -67,15 +68,50 @@ constexpr double kMjMaxVal = 1e10;
 }
 
 // Words the parsers know (and a few near misses), so that inputs get past the choices quickly.
-constexpr const char* kWords[] = {
-    "tsui2009", "kim2016", "bodson1993", "current_microstep", "voltage_microstep",
-    "ideal_current", "servo", "identification", "stmms", "foc", "position", "velocity",
-    "h_bridge", "svpwm", "estimate", "exact", "none", "trapezoid", "scurve", "on", "off",
-    "case1", "case2", "analytic", "numeric", "", " ", "nan", "inf", "-inf", "1e999", "0x10",
-    "4,8", "+", "-", ".", "e5", "Position", "tsui2009 ", " none", "none;"};
+constexpr const char* kWords[] = {"tsui2009",
+                                  "kim2016",
+                                  "bodson1993",
+                                  "current_microstep",
+                                  "voltage_microstep",
+                                  "ideal_current",
+                                  "servo",
+                                  "identification",
+                                  "stmms",
+                                  "foc",
+                                  "position",
+                                  "velocity",
+                                  "h_bridge",
+                                  "svpwm",
+                                  "estimate",
+                                  "exact",
+                                  "none",
+                                  "trapezoid",
+                                  "scurve",
+                                  "on",
+                                  "off",
+                                  "case1",
+                                  "case2",
+                                  "analytic",
+                                  "numeric",
+                                  "",
+                                  " ",
+                                  "nan",
+                                  "inf",
+                                  "-inf",
+                                  "1e999",
+                                  "0x10",
+                                  "4,8",
+                                  "+",
+                                  "-",
+                                  ".",
+                                  "e5",
+                                  "Position",
+                                  "tsui2009 ",
+                                  " none",
+                                  "none;"};
 
-constexpr const char* kNumberFormats[] = {"%g", "%.17g", "%e", "%f", "%a", "%+g", " %g ",
-                                          "%gV", "\t%.3g\n"};
+constexpr const char* kNumberFormats[] = {"%g",  "%.17g", "%e",  "%f",      "%a",
+                                          "%+g", " %g ",  "%gV", "\t%.3g\n"};
 
 // A double with every exponent reachable: small integers, decimals, or any bit pattern.
 double ConsumeNumber(FuzzedDataProvider& in) {
@@ -132,7 +168,8 @@ std::string ConsumeValue(FuzzedDataProvider& in) {
 }
 
 constexpr const char* kProfileNames[] = {"constant", "ramp", "trapezoid", "", "Ramp", "const"};
-constexpr const char* kUnits[] = {"rpm", "r/min", "rad/s", "rad", "deg", "s", "ms", "", "m", " rpm"};
+constexpr const char* kUnits[] = {"rpm", "r/min", "rad/s", "rad", "deg",
+                                  "s",   "ms",    "",      "m",   " rpm"};
 
 std::string ConsumeProfileText(FuzzedDataProvider& in) {
   if (in.ConsumeIntegralInRange<int>(0, 7) == 0) return in.ConsumeRandomLengthString(64);
@@ -150,17 +187,23 @@ std::string ConsumeProfileText(FuzzedDataProvider& in) {
 }
 
 // The core state's fields by name, for reports.
-#define MJSTEPPER_FIELD(f) {#f, offsetof(DriveCoreState, f) / sizeof(double)}
+#define MJSTEPPER_FIELD(f) \
+  { #f, offsetof(DriveCoreState, f) / sizeof(double) }
 constexpr std::pair<const char*, size_t> kCoreFields[] = {
-    MJSTEPPER_FIELD(started),       MJSTEPPER_FIELD(theta),          MJSTEPPER_FIELD(theta_cmd),
-    MJSTEPPER_FIELD(omega_cmd),     MJSTEPPER_FIELD(current_a),      MJSTEPPER_FIELD(current_b),
-    MJSTEPPER_FIELD(voltage_a),     MJSTEPPER_FIELD(voltage_b),      MJSTEPPER_FIELD(pending_a),
-    MJSTEPPER_FIELD(pending_b),     MJSTEPPER_FIELD(pending),        MJSTEPPER_FIELD(apply_time),
-    MJSTEPPER_FIELD(next_tick),     MJSTEPPER_FIELD(anchor_tick),    MJSTEPPER_FIELD(anchor_time),
-    MJSTEPPER_FIELD(theta_meas),    MJSTEPPER_FIELD(omega_est),      MJSTEPPER_FIELD(current_ref_a),
-    MJSTEPPER_FIELD(current_ref_b), MJSTEPPER_FIELD(energy_input),   MJSTEPPER_FIELD(energy_copper),
-    MJSTEPPER_FIELD(energy_mechanical), MJSTEPPER_FIELD(rotor_cos),  MJSTEPPER_FIELD(rotor_sin),
-    MJSTEPPER_FIELD(slip_cell),     MJSTEPPER_FIELD(slip_origin),    MJSTEPPER_FIELD(last_slip_time)};
+    MJSTEPPER_FIELD(started),       MJSTEPPER_FIELD(theta),
+    MJSTEPPER_FIELD(theta_cmd),     MJSTEPPER_FIELD(omega_cmd),
+    MJSTEPPER_FIELD(current_a),     MJSTEPPER_FIELD(current_b),
+    MJSTEPPER_FIELD(voltage_a),     MJSTEPPER_FIELD(voltage_b),
+    MJSTEPPER_FIELD(pending_a),     MJSTEPPER_FIELD(pending_b),
+    MJSTEPPER_FIELD(pending),       MJSTEPPER_FIELD(apply_time),
+    MJSTEPPER_FIELD(next_tick),     MJSTEPPER_FIELD(anchor_tick),
+    MJSTEPPER_FIELD(anchor_time),   MJSTEPPER_FIELD(theta_meas),
+    MJSTEPPER_FIELD(omega_est),     MJSTEPPER_FIELD(current_ref_a),
+    MJSTEPPER_FIELD(current_ref_b), MJSTEPPER_FIELD(energy_input),
+    MJSTEPPER_FIELD(energy_copper), MJSTEPPER_FIELD(energy_mechanical),
+    MJSTEPPER_FIELD(rotor_cos),     MJSTEPPER_FIELD(rotor_sin),
+    MJSTEPPER_FIELD(slip_cell),     MJSTEPPER_FIELD(slip_origin),
+    MJSTEPPER_FIELD(last_slip_time)};
 #undef MJSTEPPER_FIELD
 static_assert(std::size(kCoreFields) == sizeof(DriveCoreState) / sizeof(double));
 
@@ -168,10 +211,12 @@ std::string NonFinite(const DriveState& s, int stored) {
   const double* core = reinterpret_cast<const double*>(static_cast<const DriveCoreState*>(&s));
   std::string out = "non-finite:";
   for (const auto& [name, index] : kCoreFields) {
-    if (!std::isfinite(core[index])) out += std::string(" ") + name + "=" + std::to_string(core[index]);
+    if (!std::isfinite(core[index]))
+      out += std::string(" ") + name + "=" + std::to_string(core[index]);
   }
   for (int i = 0; i < stored; ++i) {
-    if (!std::isfinite(s.unit[i])) out += " unit[" + std::to_string(i) + "]=" + std::to_string(s.unit[i]);
+    if (!std::isfinite(s.unit[i]))
+      out += " unit[" + std::to_string(i) + "]=" + std::to_string(s.unit[i]);
   }
   return out;
 }
@@ -193,7 +238,8 @@ std::string Describe(const std::map<std::string, std::string>& attributes) {
 void CheckRejection(const std::string& message, const std::map<std::string, std::string>& given) {
   const std::string context = "message: " + message + "\n" + Describe(given);
   const size_t eq = message.find(" = \"");
-  if (eq == std::string::npos) Fail("config rejection not of the form name = \"value\": rule", context);
+  if (eq == std::string::npos)
+    Fail("config rejection not of the form name = \"value\": rule", context);
   const std::string name = message.substr(0, eq);
   const mjstepper::AttributeSpec* spec = nullptr;
   for (const mjstepper::AttributeSpec* s : AttributeTable()) {
@@ -212,7 +258,8 @@ void CheckRejection(const std::string& message, const std::map<std::string, std:
     const size_t close = rest.find("\": ");
     double quoted = 0;
     if (rest.compare(0, expected.size(), expected) != 0 &&
-        !(close != std::string::npos && mjstepper::ParseFiniteDouble(rest.substr(0, close), &quoted))) {
+        !(close != std::string::npos &&
+          mjstepper::ParseFiniteDouble(rest.substr(0, close), &quoted))) {
       Fail("config rejection of an attribute not given quotes neither its default nor a number",
            context);
     }
@@ -232,7 +279,8 @@ void CheckRejection(const std::string& message, const std::map<std::string, std:
 void CheckProfile(const std::string& text) {
   try {
     const CommandProfile profile = CommandProfile::Parse(text);
-    // Exercised for UB only: an absurd accepted profile may overflow to inf (the plugin then holds).
+    // Exercised for UB only: an absurd accepted profile may overflow to inf (the plugin then
+    // holds).
     for (double t : {-1.0, 0.0, 1e-4, 0.3, 1.0, 1e3}) {
       (void)profile.Speed(t);
       (void)profile.Angle(t);
@@ -243,8 +291,8 @@ void CheckProfile(const std::string& text) {
     const std::string message = e.what();
     if (message.empty()) Fail("empty profile rejection", "profile: " + text);
     if (message.rfind("profile \"", 0) != 0) {
-      Fail("profile rejection does not quote the profile", "profile: " + text + "\nmessage: " +
-                                                                message);
+      Fail("profile rejection does not quote the profile",
+           "profile: " + text + "\nmessage: " + message);
     }
   }
 }
@@ -256,14 +304,14 @@ double PluginCommand(double ctrl, const DriveConfig& c, const DriveState* state,
   return state != nullptr && state->started ? state->theta_cmd : theta;
 }
 
-void CheckDrive(const StepperConfig& config, FuzzedDataProvider& in, const std::string& profile_text,
-                const std::map<std::string, std::string>& given) {
+void CheckDrive(const StepperConfig& config, FuzzedDataProvider& in,
+                const std::string& profile_text, const std::map<std::string, std::string>& given) {
   constexpr double kTimesteps[] = {50e-6, 1e-3, 2e-3, 10e-6, 1e-6, 0.01};
-  const double h = in.PickValueInArray(kTimesteps);  // s
+  const double h = in.PickValueInArray(kTimesteps);                     // s
   if (!(h <= kMaxInterruptsPerStep * config.drive.isr_period)) return;  // the plugin refuses it
-  const double theta0 = in.ConsumeFloatingPointInRange<double>(-100.0, 100.0);     // rad
-  const double omega = in.ConsumeFloatingPointInRange<double>(-1000.0, 1000.0);    // rad/s
-  const double ctrl = in.ConsumeFloatingPointInRange<double>(-1000.0, 1000.0);     // rad or rad/s
+  const double theta0 = in.ConsumeFloatingPointInRange<double>(-100.0, 100.0);   // rad
+  const double omega = in.ConsumeFloatingPointInRange<double>(-1000.0, 1000.0);  // rad/s
+  const double ctrl = in.ConsumeFloatingPointInRange<double>(-1000.0, 1000.0);   // rad or rad/s
   std::optional<CommandProfile> profile;
   try {
     profile = CommandProfile::Parse(profile_text);
@@ -275,8 +323,10 @@ void CheckDrive(const StepperConfig& config, FuzzedDataProvider& in, const std::
   const DriveConfig& c = drive.config();
   auto context = [&](int step) {
     char line[256];
-    std::snprintf(line, sizeof line, "h = %.17g, theta0 = %.17g, omega = %.17g, ctrl = %.17g, "
-                  "step %d\nprofile: ", h, theta0, omega, ctrl, step);
+    std::snprintf(line, sizeof line,
+                  "h = %.17g, theta0 = %.17g, omega = %.17g, ctrl = %.17g, "
+                  "step %d\nprofile: ",
+                  h, theta0, omega, ctrl, step);
     return line + profile_text + "\n" + Describe(given);
   };
   auto check = [&](const DriveState& s, double theta, int step) {
@@ -326,7 +376,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const int count = in.ConsumeIntegralInRange<int>(0, 10);
   for (int i = 0; i < count; ++i) {
     const size_t k = in.ConsumeIntegralInRange<size_t>(0, names.size());
-    const std::string key = k < names.size() ? names[k] : "unknown_" + in.ConsumeRandomLengthString(6);
+    const std::string key =
+        k < names.size() ? names[k] : "unknown_" + in.ConsumeRandomLengthString(6);
     attributes[key] = ConsumeValue(in);
   }
   const std::string profile_text = ConsumeProfileText(in);

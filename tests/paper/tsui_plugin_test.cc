@@ -1,6 +1,6 @@
 // Tsui 2009 targets that involve the multibody side, on MuJoCo through the plugin: H2, H3, H14.
-#include <gtest/gtest.h>
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <fstream>
@@ -115,7 +115,7 @@ TEST(TsuiPaper, H4_NaturalFrequencyWithDetent) {
       LoadModel(RotorModel(TsuiActuator("m1", "j1", Config("drive", "ideal_current"))));
   ASSERT_TRUE(m);
   const MotorParams motor = FindPreset("tsui2009")->motor;
-  const double current = 1.9;                                     // A, hold_current
+  const double current = 1.9;  // A, hold_current
   const int teeth = motor.rotor_teeth;
   double lowest = 1e9, highest = 0;
   for (int k = 0; k < 8; ++k) {
@@ -127,7 +127,7 @@ TEST(TsuiPaper, H4_NaturalFrequencyWithDetent) {
     for (int i = 0; i < 20000; ++i) mj_step(m.get(), d.get());  // 1 s: ζ·ωn·1 s = 14, settled
     double inertia = 0;  // kg·m²: the rotor's armature (0.36e-4) and its disk, MuJoCo's own M
     mj_fullM(m.get(), d.get(), &inertia);
-    const double x = teeth * d->qpos[0];              // electrical rad, at equilibrium
+    const double x = teeth * d->qpos[0];               // electrical rad, at equilibrium
     const double delta = teeth * (hold - d->qpos[0]);  // load angle
     double stiffness = teeth * motor.torque_constant * current * std::cos(delta);  // N·m/rad
     for (const DetentHarmonic& h : motor.detent) {
@@ -191,7 +191,8 @@ RampEnergies RampEnergiesAt(double h) {
   e.copper = d->sensordata[kEnergyCopper];
   e.mechanical = d->sensordata[kEnergyMechanical];
   e.stored = stored() - stored0;
-  // S-5, τdet = −Σ Kdh·sin(h·Nr·θ + φh), integrated: Σ Kdh/(h·Nr)·[cos(h·Nr·θ + φh)] from start to end.
+  // S-5, τdet = −Σ Kdh·sin(h·Nr·θ + φh), integrated: Σ Kdh/(h·Nr)·[cos(h·Nr·θ + φh)] from start to
+  // end.
   const MotorParams motor = FindPreset("tsui2009")->motor;
   for (const DetentHarmonic& k : motor.detent) {
     const double n = k.order * motor.rotor_teeth;
@@ -229,9 +230,10 @@ TEST(TsuiPaper, H6_WorkDeliveredToMuJoCoConvergesAtFirstOrder) {
     ASSERT_GT(e.input, 1.0) << h;
     const double balance = e.input - e.copper - e.stored - (e.delivered - e.detent);
     relative.push_back(std::abs(balance) / e.input);
-    std::printf("H6: h = %.4g s: W_MuJoCo = %.6f J (detent %.3g J), E_mech = %.6f J, balance "
-                "%.3g of E_in\n",
-                h, e.delivered, e.detent, e.mechanical, balance / e.input);
+    std::printf(
+        "H6: h = %.4g s: W_MuJoCo = %.6f J (detent %.3g J), E_mech = %.6f J, balance "
+        "%.3g of E_in\n",
+        h, e.delivered, e.detent, e.mechanical, balance / e.input);
     if (h <= 2.5e-5) {
       EXPECT_LT(relative.back(), 1e-4) << "h = " << h;
     }

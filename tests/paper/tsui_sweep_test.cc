@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <numbers>
 #include <sstream>
 #include <string>
@@ -110,7 +110,9 @@ TEST(TsuiPaper, H12_H13_HarmonicDampingAtConstantSpeed) {
     peaks.push_back(RadPerSecToRpm(PeakIn(Undamped(), 0.75 * target, 1.25 * target).speed));
   }
   std::vector<SweepPoint> none;  // the undamped points at the peaks: the same runs
-  for (double target : kResonances) none.push_back(PeakIn(Undamped(), 0.75 * target, 1.25 * target));
+  for (double target : kResonances) {
+    none.push_back(PeakIn(Undamped(), 0.75 * target, 1.25 * target));
+  }
   for (int i = 0; i < 3; ++i) {
     const std::vector<SweepPoint> one = SweepTsui(peaks, std::to_string(kOrders[i]));
     for (int j = 0; j < 3; ++j) {

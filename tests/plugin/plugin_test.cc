@@ -367,7 +367,7 @@ TEST(StepperPlugin, BadCtrlKeepsTheDriveFiniteAndWarns) {
   for (int i = 0; i < kNumSignals; ++i) EXPECT_TRUE(std::isfinite(d->sensordata[i])) << i;
   EXPECT_EQ(d->warning[mjWARN_BADCTRL].number, 3);
   EXPECT_EQ(d->warning[mjWARN_BADQACC].number, 0);  // no reset
-  EXPECT_NEAR(d->time, 300 * 5e-5, 1e-12);           // time ran on: nothing was reset
+  EXPECT_NEAR(d->time, 300 * 5e-5, 1e-12);          // time ran on: nothing was reset
   EXPECT_EQ(d->sensordata[kLostSteps], 0.0);
 }
 
@@ -476,8 +476,8 @@ INSTANTIATE_TEST_SUITE_P(
                       BadConfig{"rotor_teeth", "50.5", "integer"},
                       BadConfig{"detent", "4 0.006", "triplets"},
                       BadConfig{"compute_delay", "50e-6", "< isr_period"},
-                      BadConfig{"voltage_amplitude", "-1", "not read by drive current_microstep"}, BadConfig{"ki", "-0.01", ">= 0"},
-                      BadConfig{"isr_period", "0", "> 0"},
+                      BadConfig{"voltage_amplitude", "-1", "not read by drive current_microstep"},
+                      BadConfig{"ki", "-0.01", ">= 0"}, BadConfig{"isr_period", "0", "> 0"},
                       BadConfig{"hold_current", "1000", "more than bus_voltage = 48 V"},
                       BadConfig{"damping", "4 4", "harmonic 4 is named twice"}),
     [](const ::testing::TestParamInfo<BadConfig>& info) {
@@ -491,10 +491,10 @@ TEST(StepperPlugin, InterruptsPerStepAreBounded) {
   for (const char* period : {"1e-12", "1e-9"}) {
     std::string error;
     const auto start = std::chrono::steady_clock::now();
-    const ModelPtr m = LoadModel(
-        RotorModel(TsuiActuator("shaft", "j1",
-                                Config("isr_period", period) + Config("compute_delay", "0"))),
-        &error);
+    const ModelPtr m =
+        LoadModel(RotorModel(TsuiActuator(
+                      "shaft", "j1", Config("isr_period", period) + Config("compute_delay", "0"))),
+                  &error);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     EXPECT_FALSE(m) << period;
@@ -504,15 +504,15 @@ TEST(StepperPlugin, InterruptsPerStepAreBounded) {
     EXPECT_LT(seconds, 5.0) << "not a bound on the work";  // (a guard, not a timing target)
   }
   // 10 000 interrupts per step still load.
-  EXPECT_TRUE(LoadModel(RotorModel(TsuiActuator(
-      "shaft", "j1", Config("isr_period", "5e-9") + Config("compute_delay", "0")))));
+  EXPECT_TRUE(LoadModel(RotorModel(
+      TsuiActuator("shaft", "j1", Config("isr_period", "5e-9") + Config("compute_delay", "0")))));
 }
 
 // A timestep raised past the bound after loading (which would refuse it) is not refused mid-run,
 // but said, once, through MuJoCo's warning mechanism: each step now runs 20 000 interrupts.
 TEST(StepperPlugin, TimestepRaisedAfterLoadingIsReportedOnce) {
-  const ModelPtr m = LoadModel(RotorModel(TsuiActuator(
-      "shaft", "j1", Config("isr_period", "1e-6") + Config("compute_delay", "0"))));
+  const ModelPtr m = LoadModel(RotorModel(
+      TsuiActuator("shaft", "j1", Config("isr_period", "1e-6") + Config("compute_delay", "0"))));
   ASSERT_TRUE(m);
   const DataPtr d(mj_makeData(m.get()));
   m->opt.timestep = 0.02;

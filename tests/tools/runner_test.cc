@@ -214,7 +214,8 @@ TEST(Runner, UnstableRunFailsAndSaysWhen) {
   const auto csv = TempDir() / "unstable.csv";
   const Result r = RunCli("run " + path.string() +
                           " --duration 0.05 --quiet --allow-coarse --ctrl 'shaft=constant(60rpm)'"
-                          " --log " + csv.string());
+                          " --log " +
+                          csv.string());
   EXPECT_NE(r.status, 0) << r.output;
   EXPECT_THAT(r.output, AllOf(HasSubstr("went unstable at t = "), HasSubstr("reset"),
                               HasSubstr("smaller timestep")));
