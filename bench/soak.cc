@@ -13,7 +13,6 @@
 // status 1 if any NaN, out-of-bound current or MuJoCo warning was seen.
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -35,13 +34,14 @@ namespace {
 using mjstepper::RpmToRadPerSec;
 using mjstepper::SignalIndex;
 
-// Resident set now, kB (/proc/self/status).
-long ResidentKb() {
+// A line of /proc/self/status in kB: "VmRSS:" (the resident set now) or "VmHWM:" (its peak, from
+// the same counters; getrusage's ru_maxrss is kept apart and can read below VmRSS).
+long StatusKb(const std::string& field) {
   std::ifstream status("/proc/self/status");
   std::string key;
   long value = 0;
   while (status >> key) {
-    if (key == "VmRSS:") {
+    if (key == field) {
       status >> value;
       return value;
     }
@@ -50,11 +50,8 @@ long ResidentKb() {
   return -1;
 }
 
-long PeakResidentKb() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return usage.ru_maxrss;
-}
+long ResidentKb() { return StatusKb("VmRSS:"); }
+long PeakResidentKb() { return StatusKb("VmHWM:"); }
 
 bool AllFinite(const mjtNum* values, int n) {
   for (int i = 0; i < n; ++i) {
