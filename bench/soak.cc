@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
     for (int s = 0; s < n; ++s) {
       const mjstepper::DriveConfig& c = sm.steppers[s].config;
       watch[s].bound = c.bus_voltage / c.motor.resistance;
-      gear[s] = m->actuator_gear[6 * sm.steppers[s].actuator];
+      gear[s] = mjstepper::tools::Gear(m, sm.steppers[s]);
       command[s] = target[s] = c.input == mjstepper::InputMode::kPosition
                                    ? d->actuator_length[sm.steppers[s].outadr]
                                    : 0.0;

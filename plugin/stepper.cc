@@ -60,6 +60,18 @@ bool IsStepperInstance(const mjModel* m, int instance) {
          m->plugin[instance] == slot;
 }
 
+// The bound on interrupts per step, and the least isr_period it allows at `timestep` as printed in
+// messages: rounded up to 3 significant digits, so that the value a user copies is accepted. The
+// test allows a relative 1e-9 for the decimal round trip (5e-9 s × 10 000 is a hair under 5e-5 s).
+bool InterruptsFit(double timestep, double isr_period) {
+  return timestep <= kMaxInterruptsPerStep * isr_period * (1 + 1e-9);
+}
+double LeastIsrPeriod(double timestep) {
+  const double exact = timestep / kMaxInterruptsPerStep;                  // s
+  const double unit = std::pow(10.0, std::floor(std::log10(exact)) - 2);  // of the 3rd digit
+  return std::ceil(exact / unit * (1 - 1e-12)) * unit;
+}
+
 }  // namespace
 
 std::string VersionMismatch(int built_for, int running) {
@@ -149,16 +161,14 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
   // Every step runs each interrupt in it (and MuJoCo's compiler steps once while loading): bound
   // their number, so that no config makes a load or a step take unbounded time.
   const double isr_period = std::get<StepperConfig>(parsed).drive.isr_period;  // s
-  const double max_timestep = kMaxInterruptsPerStep * isr_period;              // s
-  if (!(m->opt.timestep <= max_timestep)) {
+  if (!InterruptsFit(m->opt.timestep, isr_period)) {
     const char* raw = read("isr_period");
     return fail(fmt::format(
         "isr_period = \"{}\": at most {} interrupts per timestep ({:g} s) are run; use "
         "isr_period >= {:g} (s)",
         raw != nullptr && raw[0] != '\0' ? std::string(raw) : fmt::format("{:g}", isr_period),
-        kMaxInterruptsPerStep, m->opt.timestep, m->opt.timestep / kMaxInterruptsPerStep));
+        kMaxInterruptsPerStep, m->opt.timestep, LeastIsrPeriod(m->opt.timestep)));
   }
-  stepper->max_timestep_ = max_timestep;
   stepper->drive_.emplace(std::get<StepperConfig>(parsed).drive);
   stepper->state_size_ = stepper->drive_->layout().total();
   stepper->gauge_ = std::get<StepperConfig>(parsed).gauge;
@@ -227,19 +237,19 @@ void Stepper::Reset(const mjModel* m, mjtNum* plugin_state, int instance) {
 
 double Stepper::Command(const mjModel* m, const mjData* d, const Actuator& a,
                         const DriveState* state) const {
-  double ctrl = d->ctrl[a.ctrladr];  // plugins get ctrl raw: clamp it as MuJoCo would
-  if (!std::isfinite(ctrl) || std::abs(ctrl) > mjMAXVAL) {
-    // A NaN, infinite or absurd ctrl (MuJoCo's own test, mju_isBad) is not a command: the drive
-    // holds what it had (stops, in velocity mode) instead of turning its state to NaN.
-    const bool velocity = drive_->config().input == InputMode::kVelocity;
-    if (velocity) return 0.0;
-    return state != nullptr && state->started ? state->theta_cmd : d->actuator_length[a.outadr];
-  }
-  if (m->actuator_ctrllimited[a.ctrladr]) {
+  // Plugins get ctrl raw: clamp it as MuJoCo's mj_fwdActuation does, then test it as MuJoCo does
+  // (mju_isBad: NaN or beyond mjMAXVAL), which also counts it as mjWARN_BADCTRL for every
+  // actuator. MuJoCo then zeroes all controls; a drive instead keeps its command (its speed, or the
+  // angle it is going to), so that one bad sample neither turns its state to NaN nor jerks it.
+  double ctrl = d->ctrl[a.ctrladr];
+  if (m->actuator_ctrllimited[a.ctrladr] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL)) {
     ctrl = std::clamp(ctrl, m->actuator_ctrlrange[2 * a.ctrladr],
-                      m->actuator_ctrlrange[2 * a.ctrladr + 1]);
+                      m->actuator_ctrlrange[2 * a.ctrladr + 1]);  // (NaN stays NaN)
   }
-  return ctrl;
+  if (!mju_isBad(ctrl)) return ctrl;
+  if (state != nullptr && state->started) return drive_->HoldingCommand(*state);
+  // Not started: at rest where the rotor is.
+  return drive_->config().input == InputMode::kVelocity ? 0.0 : d->actuator_length[a.outadr];
 }
 
 DriveState Stepper::CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const {
@@ -273,13 +283,14 @@ void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
   if (!drive_) return;
   const double t1 = d->time;  // s, the step's end: MuJoCo advances time before plugins
   const double t0 = t1 - m->opt.timestep;
-  if (m->opt.timestep > max_timestep_ && !warned_timestep_.exchange(true)) {
+  if (!InterruptsFit(m->opt.timestep, drive_->config().isr_period) &&
+      !warned_timestep_.exchange(true)) {
     // Raised after loading (which refuses it): every interrupt still runs, so say what it costs.
     mju_warning("%s", fmt::format("mjstepper: timestep {:g} s runs {:.0f} interrupts per step, "
                                   "more than the {} a load allows; use isr_period >= {:g} (s) or "
                                   "a smaller timestep",
                                   m->opt.timestep, m->opt.timestep / drive_->config().isr_period,
-                                  kMaxInterruptsPerStep, m->opt.timestep / kMaxInterruptsPerStep)
+                                  kMaxInterruptsPerStep, LeastIsrPeriod(m->opt.timestep))
                           .c_str());
   }
   for (size_t slot = 0; slot < actuators_.size(); ++slot) {

@@ -5,8 +5,9 @@
 //     its own <config>, or a named <instance> shared by several actuators): actuator capability;
 //   - a signal probe, a <sensor><plugin objtype="actuator" objname="..."> with no config: sensor
 //     capability, reading the signals of the drive on that actuator.
-// State: the drive's StateLayout (core, controller, profile) per bound actuator in plugin_state; plugin_data holds only the
-// parsed configuration and the actuators' addresses (constant after init).
+// State: the drive's StateLayout (core, controller, profile) per bound actuator in plugin_state;
+// plugin_data holds the parsed configuration and the actuators' addresses (constant after init),
+// and one diagnostic flag (whether a too-coarse timestep was reported), never simulation state.
 #ifndef MJSTEPPER_PLUGIN_STEPPER_H_
 #define MJSTEPPER_PLUGIN_STEPPER_H_
 
@@ -93,9 +94,8 @@ class Stepper {
   std::optional<Drive> drive_;  // empty for a probe
   int state_size_ = 0;          // doubles of plugin_state per actuator: drive_->layout().total()
   bool gauge_ = true;
-  double max_timestep_ = 0;  // s: kMaxInterruptsPerStep interrupt periods (checked at load)
-  // Whether a timestep raised past max_timestep_ after loading was reported (once per mjData):
-  // a diagnostic, not simulation state.
+  // Whether a timestep raised past the interrupt bound after loading was reported (once per
+  // instance and mjData): a diagnostic, not simulation state.
   mutable std::atomic<bool> warned_timestep_{false};
   std::vector<Actuator> actuators_;  // bound actuators, in id order
 };

@@ -172,6 +172,14 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   return s;
 }
 
+double Drive::HoldingCommand(const DriveState& s) const {
+  if (config_.input == InputMode::kVelocity) return s.omega_cmd;
+  if (layout_.profile > 0) {
+    return Unpack<MotionProfile::State>(s.unit.data() + layout_.controller).target;
+  }
+  return s.theta_cmd;
+}
+
 void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double command) const {
   std::visit([&](const auto& unit) { AdvanceWith(unit, s, t0, t1, theta1, command); },
              config_.controller);

@@ -178,6 +178,11 @@ class Drive {
   /// command (rad or rad/s, by input mode; the target angle with a profile) is held over the step.
   void Advance(DriveState* state, double t0, double t1, double theta1, double command) const;
 
+  /// The command that keeps a started drive doing what it does: its commanded speed in velocity
+  /// mode, else the angle it is going to (the profile's target, or θcmd). Given in place of a
+  /// ctrl that is no command (NaN, infinite, beyond any real value).
+  double HoldingCommand(const DriveState& state) const;
+
   /// τm + τdet at rotor angle θ with the state's currents (N·m).
   double Torque(const DriveCoreState& state, double theta) const;
   /// The same from a started state's stored doubles (layout().total() of them), reading only

@@ -9,8 +9,9 @@
 
 namespace mjstepper::tools {
 
-// Owns what it has made, and frees exactly that: a constructor that throws halfway (no GL, a bad
-// camera) leaks neither the GL context nor MuJoCo's scene and GL objects.
+// Owns what it has made, and frees exactly that, on destruction and when the renderer's
+// constructor throws halfway (OSMesaMakeCurrent failing, no offscreen framebuffer): neither the GL
+// context nor MuJoCo's scene and GL objects leak. (A bad camera or size throws before any is made.)
 struct OffscreenRenderer::Context {
   OSMesaContext osmesa = nullptr;
   std::vector<unsigned char> window;  // OSMesa's own (small) colour buffer; we render offscreen

@@ -252,7 +252,7 @@ double HighestMode(const mjModel* m, const std::vector<StepperActuator>& stepper
   }
   for (const StepperActuator& s : steppers) {
     const int dof = m->jnt_dofadr[m->actuator_trnid[2 * s.actuator]];
-    const double gear = m->actuator_gear[6 * m->actuator_outadr[s.actuator]];
+    const double gear = Gear(m, s);
     stiffness(dof, dof) += Drive(s.config).HoldingStiffness() * gear * gear;
   }
   const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> solver(

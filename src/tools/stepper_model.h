@@ -24,6 +24,11 @@ struct StepperActuator {
   int outadr = 0;
 };
 
+/// The actuator's gear (rotor angle per joint unit): actuator_gear is per force output (nout x 6).
+inline double Gear(const mjModel* m, const StepperActuator& s) {
+  return m->actuator_gear[6 * s.outadr];
+}
+
 struct ModelDeleter {
   void operator()(mjModel* m) const { mj_deleteModel(m); }
 };

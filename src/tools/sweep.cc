@@ -113,7 +113,7 @@ PullOutPoint RunPullOut(const mjModel* m, const StepperActuator& s, double speed
   mjData* d = run.d;
   const double load_start = run.ramp + o.settle;  // s
   const int dof = m->jnt_dofadr[m->actuator_trnid[2 * s.actuator]];
-  const double gear = m->actuator_gear[6 * s.outadr];
+  const double gear = Gear(m, s);
   const double against = speed < 0 ? 1.0 : -1.0;  // the load opposes the motion
   PullOutPoint p{.speed = speed};
   while (true) {
@@ -362,6 +362,7 @@ void WriteSweepCsv(const std::string& path, const std::vector<SweepPoint>& point
 
 std::vector<SweepPoint> ReadSweepCsv(const std::string& path) {
   std::ifstream in(path);
+  if (!in) throw std::runtime_error(fmt::format("cannot read {}", path));
   std::string line;
   std::string header;
   for (const char* name : kSweepHeader) {
@@ -373,13 +374,22 @@ std::vector<SweepPoint> ReadSweepCsv(const std::string& path) {
         fmt::format("{}: not a sweep CSV (expected the header {})", path, header));
   }
   std::vector<SweepPoint> points;
-  while (std::getline(in, line)) {
+  for (int row = 2; std::getline(in, line); ++row) {
     double v[std::size(kSweepHeader)];
     std::istringstream fields(line);
+    std::string field;
     for (double& x : v) {
-      std::string field;
-      std::getline(fields, field, ',');
-      x = std::strtod(field.c_str(), nullptr);
+      char* end = nullptr;
+      const bool present = static_cast<bool>(std::getline(fields, field, ','));
+      if (present) x = std::strtod(field.c_str(), &end);
+      if (!present || end == field.c_str() || *end != '\0') {
+        throw std::runtime_error(
+            fmt::format("{}:{}: not {} numbers: {}", path, row, std::size(kSweepHeader), line));
+      }
+    }
+    if (std::getline(fields, field, ',')) {
+      throw std::runtime_error(
+          fmt::format("{}:{}: more than {} fields: {}", path, row, std::size(kSweepHeader), line));
     }
     points.push_back({.speed = v[1],
                       .rms_error = RpmToRadPerSec(v[2]),

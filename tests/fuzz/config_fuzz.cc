@@ -297,11 +297,12 @@ void CheckProfile(const std::string& text) {
   }
 }
 
-// The plugin's Command(): a ctrl that is not finite or beyond mjMAXVAL holds the drive.
-double PluginCommand(double ctrl, const DriveConfig& c, const DriveState* state, double theta) {
+// The plugin's Command() (no ctrlrange here): a ctrl that is not finite or beyond mjMAXVAL keeps
+// the drive's command, or rests it where the rotor is before it has started.
+double PluginCommand(double ctrl, const Drive& drive, const DriveState* state, double theta) {
   if (std::isfinite(ctrl) && std::abs(ctrl) <= kMjMaxVal) return ctrl;
-  if (c.input == InputMode::kVelocity) return 0.0;
-  return state != nullptr && state->started ? state->theta_cmd : theta;
+  if (state != nullptr && state->started) return drive.HoldingCommand(*state);
+  return drive.config().input == InputMode::kVelocity ? 0.0 : theta;
 }
 
 void CheckDrive(const StepperConfig& config, FuzzedDataProvider& in,
@@ -349,13 +350,13 @@ void CheckDrive(const StepperConfig& config, FuzzedDataProvider& in,
   auto ctrl_at = [&](double t) {
     return profile ? profile->ControlForStep(t, h, c.input, theta0) : ctrl;
   };
-  DriveState state = drive.Rest(0.0, theta0, PluginCommand(ctrl_at(0.0), c, nullptr, theta0));
+  DriveState state = drive.Rest(0.0, theta0, PluginCommand(ctrl_at(0.0), drive, nullptr, theta0));
   check(state, theta0, 0);
   double theta = theta0;
   for (int step = 1; step <= 5; ++step) {
     const double t0 = (step - 1) * h;
     const double t1 = step * h;
-    const double command = PluginCommand(ctrl_at(t0), c, &state, theta);
+    const double command = PluginCommand(ctrl_at(t0), drive, &state, theta);
     theta = theta0 + omega * t1;
     drive.Advance(&state, t0, t1, theta, command);
     check(state, theta, step);

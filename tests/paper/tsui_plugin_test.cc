@@ -167,7 +167,8 @@ struct RampEnergies {
 
 RampEnergies RampEnergiesAt(double h) {
   std::string xml = TsuiRigidWithSignals();
-  xml.replace(xml.find("timestep=\"5e-5\""), 16, fmt::format("timestep=\"{:g}\"", h));
+  const std::string step = "timestep=\"5e-5\"";
+  xml.replace(xml.find(step), step.size(), fmt::format("timestep=\"{:g}\"", h));
   const ModelPtr m = LoadModel(xml);
   if (!m) return {};
   const DataPtr d(mj_makeData(m.get()));

@@ -350,25 +350,81 @@ TEST(StepperPlugin, MissingRotorInertiaFailsNamingTheArmature) {
       << error;
 }
 
-// A NaN or absurd ctrl is not a command: the drive keeps its state finite (holding, in velocity
-// mode stopping), MuJoCo's own bad-ctrl warning counts it (once per bad step), and the
-// simulation is not reset.
+// A NaN or absurd ctrl is not a command: the drive keeps its command (here its speed) and its
+// state finite, MuJoCo's own bad-ctrl warning counts it (once per bad step), and the simulation is
+// not reset.
 TEST(StepperPlugin, BadCtrlKeepsTheDriveFiniteAndWarns) {
   const ModelPtr m = LoadModel(ProbedVelocityRotor());
   ASSERT_TRUE(m);
   const DataPtr d(mj_makeData(m.get()));
+  const double h = m->opt.timestep;
   for (double bad : {std::nan(""), 1e12, -HUGE_VAL}) {
     for (int k = 0; k < 100; ++k) {
-      d->ctrl[0] = k == 50 ? bad : 10.0;  // one bad step in a run at 10 rad/s
+      d->ctrl[0] = 10.0;  // a run at 10 rad/s with one bad step
+      mj_forward(m.get(), d.get());
+      const double theta_cmd = d->sensordata[kThetaCmd];
+      if (k == 50) d->ctrl[0] = bad;
       mj_step(m.get(), d.get());
+      if (k == 50) {  // the bad step went on at 10 rad/s (stopping would leave θcmd where it was)
+        d->ctrl[0] = 10.0;
+        mj_forward(m.get(), d.get());
+        EXPECT_NEAR(d->sensordata[kThetaCmd] - theta_cmd, 10.0 * h, 1e-12) << bad;
+      }
     }
   }
   mj_forward(m.get(), d.get());
   for (int i = 0; i < kNumSignals; ++i) EXPECT_TRUE(std::isfinite(d->sensordata[i])) << i;
   EXPECT_EQ(d->warning[mjWARN_BADCTRL].number, 3);
   EXPECT_EQ(d->warning[mjWARN_BADQACC].number, 0);  // no reset
-  EXPECT_NEAR(d->time, 300 * 5e-5, 1e-12);          // time ran on: nothing was reset
+  EXPECT_NEAR(d->time, 300 * h, 1e-12);             // time ran on: nothing was reset
   EXPECT_EQ(d->sensordata[kLostSteps], 0.0);
+}
+
+// A position drive with a trapezoid profile keeps going to its target through a NaN sample: the
+// move is the same, to the last bit, as the one with no bad sample (keeping θcmd instead would
+// re-plan a stop there, then re-plan the move).
+TEST(StepperPlugin, BadCtrlDoesNotDisturbAProfiledMove) {
+  const ModelPtr m = LoadModel(RotorModel(
+      TsuiActuator("m1", "j1",
+                   Config("profile", "trapezoid") + Config("profile_speed", "20") +
+                       Config("profile_accel", "200")),
+      "", R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  ASSERT_TRUE(m);
+  const DataPtr clean(mj_makeData(m.get())), hit(mj_makeData(m.get()));
+  for (int k = 0; k < 2000; ++k) {  // 0.1 s of a 1 rad move (0.14 s at 200 rad/s²)
+    clean->ctrl[0] = 1.0;
+    hit->ctrl[0] = k == 400 ? std::nan("") : 1.0;
+    mj_step(m.get(), clean.get());
+    mj_step(m.get(), hit.get());
+  }
+  EXPECT_EQ(hit->warning[mjWARN_BADCTRL].number, 1);
+  EXPECT_GT(clean->qpos[0], 0.5);  // the move is under way: 0.5 rad at 0.1 s
+  EXPECT_EQ(hit->qpos[0], clean->qpos[0]);
+  for (int i = 0; i < m->nplugin; ++i) {
+    const int adr = m->plugin_stateadr[i], n = m->plugin_statenum[i];
+    for (int j = 0; j < n; ++j) EXPECT_EQ(hit->plugin_state[adr + j], clean->plugin_state[adr + j]);
+  }
+}
+
+// On an actuator with a ctrlrange, MuJoCo clamps before it tests: an infinite ctrl is the range's
+// end, as for MuJoCo's own actuators, and no warning (the drive runs at 5 rad/s).
+TEST(StepperPlugin, InfiniteCtrlOnALimitedActuatorIsClamped) {
+  std::string actuator = VelocityTsui();
+  actuator.replace(actuator.find("armature="), 0, R"(ctrlrange="-5 5" )");
+  const ModelPtr m = LoadModel(RotorModel(
+      actuator, "",
+      R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  ASSERT_TRUE(m);
+  ASSERT_TRUE(m->actuator_ctrllimited[0]);
+  const DataPtr d(mj_makeData(m.get()));
+  for (int k = 0; k < 100; ++k) {
+    d->ctrl[0] = HUGE_VAL;
+    mj_step(m.get(), d.get());
+  }
+  mj_forward(m.get(), d.get());
+  EXPECT_EQ(d->warning[mjWARN_BADCTRL].number, 0);
+  EXPECT_NEAR(d->sensordata[SignalIndex("omega_cmd")], 5.0, 1e-12);
+  EXPECT_NEAR(d->sensordata[kThetaCmd], 5.0 * 100 * m->opt.timestep, 1e-9);
 }
 
 // gear = 0 would freeze the rotor and report a force on nothing: a load error naming the gear.
@@ -506,6 +562,22 @@ TEST(StepperPlugin, InterruptsPerStepAreBounded) {
   // 10 000 interrupts per step still load.
   EXPECT_TRUE(LoadModel(RotorModel(
       TsuiActuator("shaft", "j1", Config("isr_period", "5e-9") + Config("compute_delay", "0")))));
+  // The least period the message names is accepted when copied back, also on timesteps whose
+  // 1/10 000 has more digits than it prints (they once suggested 3.33333e-08 for 1/3000 s, which
+  // was refused again).
+  for (double timestep : {1.0 / 3000, 2.0 / 3000, 1.0 / 7000, 3e-5 / 7}) {
+    std::string error;
+    const auto actuator = [](const std::string& period) {
+      return TsuiActuator("shaft", "j1",
+                          Config("isr_period", period) + Config("compute_delay", "0"));
+    };
+    EXPECT_FALSE(LoadModel(RotorModel(actuator("1e-12"), "", "", 1, timestep), &error));
+    const size_t at = error.find("isr_period >= ");
+    ASSERT_NE(at, std::string::npos) << error;
+    const std::string least = error.substr(at + 14, error.find(' ', at + 14) - at - 14);
+    EXPECT_TRUE(LoadModel(RotorModel(actuator(least), "", "", 1, timestep), &error))
+        << "timestep " << timestep << ": the suggested " << least << " is refused: " << error;
+  }
 }
 
 // A timestep raised past the bound after loading (which would refuse it) is not refused mid-run,

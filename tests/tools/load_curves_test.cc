@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <sstream>
+#include <stdexcept>
 #include <vector>
 
 #include "core/units.h"
@@ -167,6 +170,45 @@ TEST(Sweep, MidBandResonanceStallIsCounted) {
   }
   EXPECT_GT(p[1].peak_to_peak_error, 4 * p[0].peak_to_peak_error);
   EXPECT_GT(p[2].lost_steps, 4 * 50);  // it fell out of step: many electrical cycles lost
+}
+
+// A sweep CSV read back (the paper tests share one sweep this way) gives the points written, to
+// the bit; a damaged row fails naming the file and the row, not as zeros.
+TEST(Sweep, CsvReadsBackExactlyAndNamesADamagedRow) {
+  const std::vector<SweepPoint> points = {{.speed = 4.45,
+                                           .rms_error = 0.1 / 3,
+                                           .peak_to_peak_error = 2.0 / 7,
+                                           .dominant_frequency = 141.59265358979,
+                                           .lost_steps = 0},
+                                          {.speed = -17.9,
+                                           .rms_error = 1e-9,
+                                           .peak_to_peak_error = 3.0,
+                                           .dominant_frequency = 0,
+                                           .lost_steps = -4}};
+  const auto dir = std::filesystem::temp_directory_path() / "mjstepper_sweep_csv_test";
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "sweep.csv").string();
+  WriteSweepCsv(path, points);
+  const std::vector<SweepPoint> read = ReadSweepCsv(path);
+  ASSERT_EQ(read.size(), points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    EXPECT_EQ(read[i].speed, points[i].speed);
+    EXPECT_EQ(read[i].dominant_frequency, points[i].dominant_frequency);
+    EXPECT_EQ(read[i].lost_steps, points[i].lost_steps);
+    // Stored in r/min and back: within a few ulps of rad/s.
+    EXPECT_NEAR(read[i].rms_error, points[i].rms_error, 1e-15 * points[i].rms_error);
+    EXPECT_NEAR(read[i].peak_to_peak_error, points[i].peak_to_peak_error,
+                1e-15 * points[i].peak_to_peak_error);
+  }
+  std::ofstream(path, std::ios::app) << "1,2,3,x,5,6\n";
+  try {
+    ReadSweepCsv(path);
+    ADD_FAILURE() << "a damaged row was read";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(path + ":4: not 6 numbers"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(ReadSweepCsv((dir / "absent.csv").string()), std::runtime_error);
 }
 
 }  // namespace

@@ -122,20 +122,28 @@ TEST(Render, ModelWithoutCameraUsesTheFreeCamera) {
 }
 
 // A renderer whose constructor throws (here: an unknown camera) keeps nothing: it leaked its GL
-// context and MuJoCo's 2000-geom scene, about 2 MB a time (LeakSanitizer found it). Measured on
-// the heap (glibc's mallinfo2): 20 failed constructions may not grow it by even 1 MB.
+// context and MuJoCo's 2000-geom scene, about 2 MB a time (LeakSanitizer found it); and a renderer
+// made and destroyed frees all it made (its Context, which also frees a half-made renderer).
+// Measured on the heap (glibc's mallinfo2; under ASan it reads nothing, and LeakSanitizer checks
+// instead): 20 of each may not grow it by even 1 MB.
 TEST(Render, FailedConstructionLeaksNothing) {
   const StepperModel sm = LoadStepperModel(kModel);
   {  // one good renderer first, so that Mesa's one-time allocations are not counted
     OffscreenRenderer warm(sm.model.get(), {.width = 64, .height = 64, .camera = ""});
   }
-  const size_t before = mallinfo2().uordblks;
+  size_t before = mallinfo2().uordblks;
   for (int k = 0; k < 20; ++k) {
     EXPECT_THROW(OffscreenRenderer(sm.model.get(), {.width = 64, .height = 64, .camera = "nope"}),
                  std::runtime_error);
   }
-  const size_t after = mallinfo2().uordblks;
-  EXPECT_LT(after, before + (1 << 20)) << "heap grew by " << (after - before) << " bytes";
+  size_t after = mallinfo2().uordblks;
+  EXPECT_LT(after, before + (1 << 20)) << "failed: heap grew by " << (after - before) << " bytes";
+  before = mallinfo2().uordblks;
+  for (int k = 0; k < 20; ++k) {
+    OffscreenRenderer renderer(sm.model.get(), {.width = 64, .height = 64, .camera = ""});
+  }
+  after = mallinfo2().uordblks;
+  EXPECT_LT(after, before + (1 << 20)) << "made: heap grew by " << (after - before) << " bytes";
 }
 
 RunOptions RenderRun(const std::filesystem::path& dir, bool overlays) {
