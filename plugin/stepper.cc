@@ -60,17 +60,7 @@ bool IsStepperInstance(const mjModel* m, int instance) {
          m->plugin[instance] == slot;
 }
 
-// The bound on interrupts per step, and the least isr_period it allows at `timestep` as printed in
-// messages: rounded up to 3 significant digits, so that the value a user copies is accepted. The
-// test allows a relative 1e-9 for the decimal round trip (5e-9 s × 10 000 is a hair under 5e-5 s).
-bool InterruptsFit(double timestep, double isr_period) {
-  return timestep <= kMaxInterruptsPerStep * isr_period * (1 + 1e-9);
-}
-double LeastIsrPeriod(double timestep) {
-  const double exact = timestep / kMaxInterruptsPerStep;                  // s
-  const double unit = std::pow(10.0, std::floor(std::log10(exact)) - 2);  // of the 3rd digit
-  return std::ceil(exact / unit * (1 - 1e-12)) * unit;
-}
+static_assert(kMaxCommand == mjMAXVAL, "core's bound on a ctrl is MuJoCo's mju_isBad bound");
 
 }  // namespace
 
@@ -238,18 +228,15 @@ void Stepper::Reset(const mjModel* m, mjtNum* plugin_state, int instance) {
 double Stepper::Command(const mjModel* m, const mjData* d, const Actuator& a,
                         const DriveState* state) const {
   // Plugins get ctrl raw: clamp it as MuJoCo's mj_fwdActuation does, then test it as MuJoCo does
-  // (mju_isBad: NaN or beyond mjMAXVAL), which also counts it as mjWARN_BADCTRL for every
-  // actuator. MuJoCo then zeroes all controls; a drive instead keeps its command (its speed, or the
-  // angle it is going to), so that one bad sample neither turns its state to NaN nor jerks it.
+  // (mju_isBad: NaN or beyond mjMAXVAL = kMaxCommand), which also counts it as mjWARN_BADCTRL for
+  // every actuator. MuJoCo then zeroes all controls; a drive instead keeps its command
+  // (Drive::CommandFrom), so that one bad sample neither turns its state to NaN nor jerks it.
   double ctrl = d->ctrl[a.ctrladr];
   if (m->actuator_ctrllimited[a.ctrladr] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL)) {
     ctrl = std::clamp(ctrl, m->actuator_ctrlrange[2 * a.ctrladr],
                       m->actuator_ctrlrange[2 * a.ctrladr + 1]);  // (NaN stays NaN)
   }
-  if (!mju_isBad(ctrl)) return ctrl;
-  if (state != nullptr && state->started) return drive_->HoldingCommand(*state);
-  // Not started: at rest where the rotor is.
-  return drive_->config().input == InputMode::kVelocity ? 0.0 : d->actuator_length[a.outadr];
+  return drive_->CommandFrom(ctrl, state, d->actuator_length[a.outadr]);
 }
 
 DriveState Stepper::CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const {

@@ -25,10 +25,6 @@ namespace mjstepper::plugin {
 
 inline constexpr char kPluginName[] = "mjstepper.stepper";
 
-/// Interrupts per timestep a drive may run (its work per step grows with them): 10 000 is 1 MHz
-/// control on a 10 ms step, far beyond any model here (at most 50).
-inline constexpr int kMaxInterruptsPerStep = 10000;
-
 /// "" when the headers and the library agree, else a message naming both versions. Exported (the
 /// library hides everything else) for the plugin tests.
 [[gnu::visibility("default")]] std::string VersionMismatch(int built_for, int running);

@@ -74,6 +74,16 @@ double LargestTimestep(double stiffness, double inertia) {
   return kMaxOmegaTimesStep / std::sqrt(stiffness / inertia);
 }
 
+bool InterruptsFit(double timestep, double isr_period) {
+  return timestep <= kMaxInterruptsPerStep * isr_period * (1 + 1e-9);
+}
+
+double LeastIsrPeriod(double timestep) {
+  const double exact = timestep / kMaxInterruptsPerStep;                  // s
+  const double unit = std::pow(10.0, std::floor(std::log10(exact)) - 2);  // of the 3rd digit
+  return std::ceil(exact / unit * (1 - 1e-12)) * unit;
+}
+
 double SlipCell(double load_angle, double cell) {
   constexpr double kThreshold = 0.625;  // cycles: 5π/4 over 2π, π plus a margin of π/4
   // In closed form, not cycle by cycle: an absurd command (1e9 rad) must not loop 1e8 times, and
@@ -172,12 +182,15 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   return s;
 }
 
-double Drive::HoldingCommand(const DriveState& s) const {
-  if (config_.input == InputMode::kVelocity) return s.omega_cmd;
+double Drive::CommandFrom(double ctrl, const DriveState* state, double theta) const {
+  if (std::isfinite(ctrl) && std::abs(ctrl) <= kMaxCommand) return ctrl;
+  const bool velocity = config_.input == InputMode::kVelocity;
+  if (state == nullptr || !state->started) return velocity ? 0.0 : theta;
+  if (velocity) return state->omega_cmd;
   if (layout_.profile > 0) {
-    return Unpack<MotionProfile::State>(s.unit.data() + layout_.controller).target;
+    return Unpack<MotionProfile::State>(state->unit.data() + layout_.controller).target;
   }
-  return s.theta_cmd;
+  return state->theta_cmd;
 }
 
 void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double command) const {

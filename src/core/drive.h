@@ -73,6 +73,23 @@ inline constexpr double kMaxOmegaTimesStep = 0.2;
 /// (N·m/rad): kMaxOmegaTimesStep/ωn, ωn = √(T'/J); infinite when T' = 0.
 double LargestTimestep(double stiffness, double inertia);
 
+/// A step runs every interrupt in it (and MuJoCo's compiler steps once while loading): at most
+/// this many per timestep, so that no config makes a load or a step take unbounded time. 10 000 is
+/// 1 MHz control on a 10 ms step, far beyond any model here (at most 50).
+inline constexpr int kMaxInterruptsPerStep = 10000;
+
+/// Whether a timestep (s) holds at most kMaxInterruptsPerStep interrupts of isr_period (s), less a
+/// relative 1e-9 for the decimal round trip (5e-9 s × 10 000 is a hair under 5e-5 s).
+bool InterruptsFit(double timestep, double isr_period);
+
+/// The least isr_period (s) that fits the timestep (s), rounded up to 3 significant digits: the
+/// value messages print, accepted when a user copies it back.
+double LeastIsrPeriod(double timestep);
+
+/// The largest |ctrl| that is a command (MuJoCo's mjMAXVAL, mju_isBad's bound; the plugin checks
+/// they agree): beyond it, or not finite, a ctrl is no command.
+inline constexpr double kMaxCommand = 1e10;
+
 /// The electrical cycle k (δ ≈ 2π·k) a rotor at load angle δ sits in, given the cycle it was in:
 /// it moves on only when δ is more than 5π/4 from 2π·k, past the unstable equilibrium at ±π with
 /// a margin, so that a rotor hovering near ±π (at its pull-out torque) does not count slips back
@@ -178,10 +195,11 @@ class Drive {
   /// command (rad or rad/s, by input mode; the target angle with a profile) is held over the step.
   void Advance(DriveState* state, double t0, double t1, double theta1, double command) const;
 
-  /// The command that keeps a started drive doing what it does: its commanded speed in velocity
-  /// mode, else the angle it is going to (the profile's target, or θcmd). Given in place of a
-  /// ctrl that is no command (NaN, infinite, beyond any real value).
-  double HoldingCommand(const DriveState& state) const;
+  /// `ctrl` (rad or rad/s, by input mode) as the drive's command. A ctrl that is NaN, infinite or
+  /// beyond kMaxCommand is no command: a started drive (`state`) keeps doing what it does, at its
+  /// commanded speed in velocity mode, else going to the same angle (the profile's target, or
+  /// θcmd); one not yet started rests where the rotor is (`theta`, rad).
+  double CommandFrom(double ctrl, const DriveState* state, double theta) const;
 
   /// τm + τdet at rotor angle θ with the state's currents (N·m).
   double Torque(const DriveCoreState& state, double theta) const;

@@ -14,9 +14,9 @@
 //      for it (trimmed, or the same number respelled) or, when it was not given, its default;
 //   4. a profile rejection is std::invalid_argument with a non-empty message quoting the profile;
 //   5. an accepted config builds a Drive, and unless the plugin would refuse it (more than
-//      kMaxInterruptsPerStep interrupts per timestep, plugin/stepper.cc), resting and advancing it
-//      five timesteps with a finite command leaves every state double, the torque and the signals
-//      finite.
+//      kMaxInterruptsPerStep interrupts per timestep, core/drive.h), resting and advancing it
+//      five timesteps with the command the plugin gives (Drive::CommandFrom) leaves every state
+//      double, the torque and the signals finite.
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <array>
@@ -38,11 +38,6 @@
 #include "core/drive.h"
 #include "core/signals.h"
 
-#ifndef MJSTEPPER_MAX_INTERRUPTS_PER_STEP
-#error \
-    "MJSTEPPER_MAX_INTERRUPTS_PER_STEP: plugin/stepper.h's kMaxInterruptsPerStep (CMake reads it)"
-#endif
-
 namespace {
 
 using mjstepper::CommandProfile;
@@ -55,11 +50,6 @@ using mjstepper::plugin::AttributeNames;
 using mjstepper::plugin::AttributeTable;
 using mjstepper::plugin::ParseStepperConfig;
 using mjstepper::plugin::StepperConfig;
-
-// Plugin's bound (plugin/stepper.h), mirrored: a config with more interrupts per step is refused.
-constexpr double kMaxInterruptsPerStep = MJSTEPPER_MAX_INTERRUPTS_PER_STEP;
-// MuJoCo's mjMAXVAL: the plugin treats a ctrl beyond it (or non-finite) as no command.
-constexpr double kMjMaxVal = 1e10;
 
 [[noreturn]] void Fail(const char* what, const std::string& detail) {
   std::fprintf(stderr, "\nconfig_fuzz: PROPERTY VIOLATED: %s\n%s\n", what, detail.c_str());
@@ -297,19 +287,11 @@ void CheckProfile(const std::string& text) {
   }
 }
 
-// The plugin's Command() (no ctrlrange here): a ctrl that is not finite or beyond mjMAXVAL keeps
-// the drive's command, or rests it where the rotor is before it has started.
-double PluginCommand(double ctrl, const Drive& drive, const DriveState* state, double theta) {
-  if (std::isfinite(ctrl) && std::abs(ctrl) <= kMjMaxVal) return ctrl;
-  if (state != nullptr && state->started) return drive.HoldingCommand(*state);
-  return drive.config().input == InputMode::kVelocity ? 0.0 : theta;
-}
-
 void CheckDrive(const StepperConfig& config, FuzzedDataProvider& in,
                 const std::string& profile_text, const std::map<std::string, std::string>& given) {
   constexpr double kTimesteps[] = {50e-6, 1e-3, 2e-3, 10e-6, 1e-6, 0.01};
   const double h = in.PickValueInArray(kTimesteps);                     // s
-  if (!(h <= kMaxInterruptsPerStep * config.drive.isr_period)) return;  // the plugin refuses it
+  if (!mjstepper::InterruptsFit(h, config.drive.isr_period)) return;  // the plugin refuses it
   const double theta0 = in.ConsumeFloatingPointInRange<double>(-100.0, 100.0);   // rad
   const double omega = in.ConsumeFloatingPointInRange<double>(-1000.0, 1000.0);  // rad/s
   const double ctrl = in.ConsumeFloatingPointInRange<double>(-1000.0, 1000.0);   // rad or rad/s
@@ -350,13 +332,13 @@ void CheckDrive(const StepperConfig& config, FuzzedDataProvider& in,
   auto ctrl_at = [&](double t) {
     return profile ? profile->ControlForStep(t, h, c.input, theta0) : ctrl;
   };
-  DriveState state = drive.Rest(0.0, theta0, PluginCommand(ctrl_at(0.0), drive, nullptr, theta0));
+  DriveState state = drive.Rest(0.0, theta0, drive.CommandFrom(ctrl_at(0.0), nullptr, theta0));
   check(state, theta0, 0);
   double theta = theta0;
   for (int step = 1; step <= 5; ++step) {
     const double t0 = (step - 1) * h;
     const double t1 = step * h;
-    const double command = PluginCommand(ctrl_at(t0), drive, &state, theta);
+    const double command = drive.CommandFrom(ctrl_at(t0), &state, theta);
     theta = theta0 + omega * t1;
     drive.Advance(&state, t0, t1, theta, command);
     check(state, theta, step);
