@@ -37,14 +37,32 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole) {
         fmt::format("profile \"{}\": \"{}\" is not a number with a unit", whole, t));
   }
   const std::string unit = Trim(std::string_view(ptr, t.data() + t.size() - ptr));
-  if (unit == "rpm" || unit == "r/min") return {RpmToRadPerSec(v), Dim::kSpeed};
-  if (unit == "rad/s") return {v, Dim::kSpeed};
-  if (unit == "rad") return {v, Dim::kAngle};
-  if (unit == "deg") return {v * kTwoPi / 360.0, Dim::kAngle};
-  if (unit == "s") return {v, Dim::kTime};
-  if (unit == "ms") return {v * 1e-3, Dim::kTime};
-  throw std::invalid_argument(fmt::format(
-      "profile \"{}\": \"{}\" needs a unit: rpm, r/min, rad/s, rad, deg, s or ms", whole, t));
+  Quantity q;
+  if (unit == "rpm" || unit == "r/min") {
+    q = {RpmToRadPerSec(v), Dim::kSpeed};
+  } else if (unit == "rad/s") {
+    q = {v, Dim::kSpeed};
+  } else if (unit == "rad") {
+    q = {v, Dim::kAngle};
+  } else if (unit == "deg") {
+    q = {v * kTwoPi / 360.0, Dim::kAngle};
+  } else if (unit == "s") {
+    q = {v, Dim::kTime};
+  } else if (unit == "ms") {
+    q = {v * 1e-3, Dim::kTime};
+  } else {
+    throw std::invalid_argument(fmt::format(
+        "profile \"{}\": \"{}\" needs a unit: rpm, r/min, rad/s, rad, deg, s or ms", whole, t));
+  }
+  const double bound = q.dim == Dim::kSpeed   ? kMaxProfileSpeed
+                       : q.dim == Dim::kAngle ? kMaxProfileAngle
+                                              : kMaxProfileTime;
+  const char* bound_unit = q.dim == Dim::kSpeed ? "rad/s" : q.dim == Dim::kAngle ? "rad" : "s";
+  if (!(std::abs(q.value) <= bound)) {
+    throw std::invalid_argument(fmt::format("profile \"{}\": \"{}\" is beyond ±{:g} {}", whole,
+                                            t, bound, bound_unit));
+  }
+  return q;
 }
 
 }  // namespace
@@ -84,6 +102,10 @@ CommandProfile CommandProfile::Parse(std::string_view text) {
       throw bad("ramp(from, to, duration > 0), from and to both speeds or both angles");
     }
     p.kind_ = args[0].dim == Dim::kSpeed ? Kind::kSpeedRamp : Kind::kAngleRamp;
+    if (p.kind_ == Kind::kAngleRamp &&
+        !(std::abs(args[1].value - args[0].value) / args[2].value <= kMaxProfileSpeed)) {
+      throw bad("an angle ramp no faster than 1e4 rad/s");
+    }
     p.a_ = args[0].value;
     p.b_ = args[1].value;
     p.t1_ = args[2].value;

@@ -14,9 +14,18 @@
 
 namespace mjstepper {
 
+/// The bounds of a profile's numbers: a speed (and an angle ramp's slope) within ±1e4 rad/s
+/// (95 493 r/min, thirty times the fastest stepper's top speed), an angle within ±1e7 rad, a time
+/// within 1e6 s. Beyond them a profile is a typing error, and its commands would pass
+/// Drive::CommandFrom's bound (kMaxCommand) and be ignored while a summary reported them.
+inline constexpr double kMaxProfileSpeed = 1e4;  // rad/s
+inline constexpr double kMaxProfileAngle = 1e7;  // rad
+inline constexpr double kMaxProfileTime = 1e6;   // s
+
 class CommandProfile {
  public:
-  /// Throws std::invalid_argument quoting the text and saying what is expected.
+  /// Throws std::invalid_argument quoting the text and saying what is expected (and any number
+  /// beyond the bounds above).
   static CommandProfile Parse(std::string_view text);
 
   /// Commanded speed at t, rad/s.

@@ -8,6 +8,7 @@
 
 #include "core/signals.h"
 #include "core/units.h"
+#include "options.h"
 #include "stepper_model.h"
 
 namespace mjstepper::tools {
@@ -25,6 +26,14 @@ Identified Identify(const IdentifyOptions& o) {
   if (o.speeds.size() < 2) {
     throw std::invalid_argument(
         "identify: give at least two speeds (Fs and B are separated by them)");
+  }
+  if (o.orders.empty()) throw std::invalid_argument("--orders: no harmonic to fit");
+  for (size_t i = 0; i < o.orders.size(); ++i) {
+    RequireInRange("--orders", Range("orders"), o.orders[i]);
+    if (std::find(o.orders.begin(), o.orders.begin() + i, o.orders[i]) != o.orders.begin() + i) {
+      throw std::invalid_argument(fmt::format(
+          "--orders: harmonic {} is given twice; each order is fitted once", o.orders[i]));
+    }
   }
   std::vector<ConfigOverride> overrides = {{o.actuator, "drive", "identification"},
                                            {o.actuator, "damping", "none"},

@@ -12,13 +12,9 @@
 #include <string>
 #include <vector>
 
-namespace mjstepper::tools {
+#include "render_options.h"
 
-struct RendererOptions {
-  int width = 1280;    ///< pixels
-  int height = 720;    ///< pixels
-  std::string camera;  ///< a named camera of the model; empty: MuJoCo's free camera
-};
+namespace mjstepper::tools {
 
 class OffscreenRenderer {
  public:

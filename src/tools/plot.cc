@@ -5,43 +5,45 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "output_file.h"
+#include "subprocess.h"
+
 namespace mjstepper::tools {
-namespace {
 
-// Single-quoted for /bin/sh: every ' becomes '\''.
-std::string Quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) {
-    if (c == '\'') {
-      out.append("'\\''");
-    } else {
-      out.push_back(c);
-    }
-  }
-  out.push_back('\'');
-  return out;
+std::string PlotProgram() {
+  const char* python = std::getenv("MJSTEPPER_PYTHON");
+  return FindProgram(python ? python : MJSTEPPER_PYTHON, "plotting",
+                     "run scripts/bootstrap.sh, or set MJSTEPPER_PYTHON to a Python with "
+                     "matplotlib");
 }
-
-}  // namespace
 
 void Plot(const std::string& kind, const std::vector<std::string>& csvs,
           const std::vector<std::string>& labels, const std::string& png, const std::string& title,
           bool versus_speed) {
-  const char* python = std::getenv("MJSTEPPER_PYTHON");
-  std::string command = fmt::format("{} {} {}", Quote(python ? python : MJSTEPPER_PYTHON),
-                                    Quote(MJSTEPPER_PLOT_SCRIPT), kind);
-  for (const std::string& csv : csvs) command += fmt::format(" {}", Quote(csv));
+  // No shell: each path and label is one argument. A path beginning with '-' is made relative
+  // ("./-x") so that the script's argument parser cannot read it as an option; a label cannot be.
+  std::vector<std::string> argv = {PlotProgram(), MJSTEPPER_PLOT_SCRIPT, kind};
+  for (const std::string& csv : csvs) argv.push_back(csv.starts_with('-') ? "./" + csv : csv);
   if (!labels.empty()) {
-    command += " --labels";
-    for (const std::string& label : labels) command += fmt::format(" {}", Quote(label));
+    argv.push_back("--labels");
+    for (const std::string& label : labels) {
+      if (label.starts_with('-')) {
+        throw std::invalid_argument(
+            fmt::format("--labels {}: a label cannot begin with '-'", label));
+      }
+      argv.push_back(label);
+    }
   }
-  command += fmt::format(" --out {}", Quote(png));
-  if (!title.empty()) command += fmt::format(" --title {}", Quote(title));
-  if (versus_speed) command += " --versus speed";
-  if (std::system(command.c_str()) != 0) {
+  if (!title.empty()) argv.insert(argv.end(), {"--title=" + title});
+  if (versus_speed) argv.insert(argv.end(), {"--versus", "speed"});
+  // The script draws into our exclusive temporary, seen by it as its descriptor 3.
+  OutputFile out(png);
+  argv.insert(argv.end(), {"--out", "/dev/fd/3"});
+  if (RunProgram(argv, {.pass_fd = out.fd()}) != 0) {
     throw std::runtime_error(
         fmt::format("plotting {} failed (the plot script says why, above)", png));
   }
+  out.Commit();
 }
 
 }  // namespace mjstepper::tools

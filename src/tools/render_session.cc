@@ -8,6 +8,8 @@
 #include <stdexcept>
 
 #include "core/units.h"
+#include "options.h"
+#include "output_file.h"
 
 namespace mjstepper::tools {
 
@@ -32,10 +34,8 @@ std::string DriveText(const DriveConfig& c) {
 RenderSession::RenderSession(const mjModel* m, const std::vector<StepperActuator>& steppers,
                              const RenderOptions& options)
     : model_(m), steppers_(steppers), options_(options), history_(steppers.size()) {
-  if (!(options.fps > 0) || !(options.playback > 0)) {
-    throw std::invalid_argument(fmt::format("--fps = {} and --playback = {}: both must be > 0",
-                                            options.fps, options.playback));
-  }
+  RequireInRange("--fps", Range("fps"), options.fps);
+  RequireInRange("--playback", Range("playback"), options.playback);
   if (options.overlay_steppers.empty()) {
     for (int i = 0; i < static_cast<int>(steppers.size()) && i < 2; ++i) overlay_.push_back(i);
   } else {
@@ -53,7 +53,7 @@ RenderSession::RenderSession(const mjModel* m, const std::vector<StepperActuator
   if (!options.video.empty()) {
     video_.emplace(options.video, renderer_->width(), renderer_->height(), options.fps);
   }
-  if (!options.frames_dir.empty()) std::filesystem::create_directories(options.frames_dir);
+  if (!options.frames_dir.empty()) CheckOutputDirectory(options.frames_dir);
   figure_ = std::make_unique<mjvFigure>();
 }
 

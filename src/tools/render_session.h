@@ -14,23 +14,11 @@
 #include <vector>
 
 #include "offscreen_renderer.h"
+#include "render_options.h"
 #include "stepper_model.h"
 #include "video_writer.h"
 
 namespace mjstepper::tools {
-
-struct RenderOptions {
-  std::string video;         ///< MP4 path; empty: none
-  std::string frames_dir;    ///< folder for frame_00000.png ...; empty: none
-  RendererOptions renderer;  ///< size and camera
-  double fps = 30;           ///< video frames per second
-  double playback = 1.0;     ///< simulated seconds per video second (0.1: ten times slower)
-  bool overlays = true;      ///< plots and text
-  std::vector<std::string> overlay_steppers;  ///< whose plots; empty: the first two steppers
-  double window = 0.25;                       ///< s of simulated time shown by the plots
-
-  bool enabled() const { return !video.empty() || !frames_dir.empty(); }
-};
 
 /// One stepper's sample at one physics step, as the runner computes it.
 struct StepperSample {

@@ -13,18 +13,15 @@
 #include "core/signals.h"
 #include "core/units.h"
 #include "csv_writer.h"
+#include "options.h"
+#include "render_session.h"
 #include "stepper_model.h"
 
 namespace mjstepper::tools {
 
 RunResult Run(const RunOptions& options, std::ostream& progress) {
-  if (!(options.duration > 0) || !std::isfinite(options.duration)) {
-    throw std::invalid_argument(
-        fmt::format("--duration = {}: must be finite and > 0 (s)", options.duration));
-  }
-  if (options.log_every < 1) {
-    throw std::invalid_argument(fmt::format("--log-every = {}: must be >= 1", options.log_every));
-  }
+  RequireInRange("--duration", Range("duration"), options.duration);
+  RequireInRange("--log-every", Range("log-every"), options.log_every);
   StepperModel sm = LoadStepperModel(options.model, options.overrides);
   for (const auto& [name, torque] : options.loads) SetLoadTorque(sm.model.get(), name, torque);
   for (const auto& [name, mass] : options.masses) SetBodyMass(sm.model.get(), name, mass);
@@ -117,7 +114,12 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   std::vector<StepperSample> samples(sm.steppers.size());
 
   const double h = m->opt.timestep;
-  const long steps = std::lround(options.duration / h);
+  // At least one step (a run of none would report nothing measured), and a number a long holds.
+  const double step_count = std::round(options.duration / h);
+  RequireInRange("--duration", Range("steps"), step_count,
+                 fmt::format("{:g} (at the model's timestep {:g} s, {:g} steps)", options.duration,
+                             h, step_count));
+  const long steps = static_cast<long>(step_count);
   RunResult result;
   result.steppers.resize(sm.steppers.size());
   if (options.keep_traces) result.traces.resize(sm.steppers.size());

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "config_overrides.h"
-#include "render_session.h"
+#include "render_options.h"
 
 namespace mjstepper::tools {
 

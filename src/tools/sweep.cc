@@ -25,20 +25,11 @@
 #include "core/signals.h"
 #include "core/units.h"
 #include "csv_writer.h"
+#include "options.h"
 #include "stepper_model.h"
 
 namespace mjstepper::tools {
 namespace {
-
-double ParseSpeed(const std::string& number, const std::string& unit, const std::string& whole) {
-  double v = 0;
-  if (!ParseFiniteDouble(number, &v)) {
-    throw std::invalid_argument(fmt::format("--speeds {}: \"{}\" is not a number", whole, number));
-  }
-  if (unit == "rpm" || unit == "r/min") return RpmToRadPerSec(v);
-  if (unit == "rad/s") return v;
-  throw std::invalid_argument(fmt::format("--speeds {}: unit must be rpm, r/min or rad/s", whole));
-}
 
 // A run at constant speed on its own mjData: the stepper's command ramps from rest at
 // `acceleration` to `speed`, then holds it; Step() sets ctrl and steps.
@@ -195,9 +186,11 @@ void ParallelFor(size_t n, int threads, bool show_progress, const char* what,
 }
 
 // run(model, stepper, speed, options) for each of the options' speeds, on all cores.
-template <class Point, class Options, class Run>
-std::vector<Point> OverSpeeds(const Options& o, const char* what, std::ostream& progress, Run run) {
+template <class Point, class Options, class Run, class Check>
+std::vector<Point> OverSpeeds(const Options& o, const char* what, std::ostream& progress, Run run,
+                              Check check) {
   const StepperModel sm = LoadStepperModel(o.model, o.overrides);
+  check(sm.model.get());
   const StepperActuator& target = FindTarget(sm, o.actuator, o.model);
   std::vector<Point> points(o.speeds.size());
   ParallelFor(o.speeds.size(), o.threads, o.progress, what, progress, [&](size_t i) {
@@ -208,57 +201,50 @@ std::vector<Point> OverSpeeds(const Options& o, const char* what, std::ostream& 
 
 }  // namespace
 
-std::vector<double> ParseSpeedList(const std::string& text) {
-  size_t unit_at = text.find_last_of("0123456789.") + 1;
-  if (unit_at == 0 || unit_at > text.size()) unit_at = text.size();
-  const std::string unit = text.substr(unit_at);
-  const std::string body = text.substr(0, unit_at);
-  std::vector<double> speeds;
-  if (body.find(':') != std::string::npos) {
-    const size_t a = body.find(':'), b = body.find(':', a + 1);
-    if (b == std::string::npos) {
-      throw std::invalid_argument(fmt::format("--speeds {}: expected from:to:step", text));
-    }
-    const double from = ParseSpeed(body.substr(0, a), unit, text);
-    const double to = ParseSpeed(body.substr(a + 1, b - a - 1), unit, text);
-    const double step = ParseSpeed(body.substr(b + 1), unit, text);
-    if (!(step > 0) || to < from) {
-      throw std::invalid_argument(fmt::format("--speeds {}: need step > 0 and to >= from", text));
-    }
-    const long n = std::lround(std::floor((to - from) / step + 1e-9));
-    for (long k = 0; k <= n; ++k) speeds.push_back(from + k * step);
-  } else {
-    size_t start = 0;
-    while (start <= body.size()) {
-      const size_t comma = body.find(',', start);
-      speeds.push_back(ParseSpeed(body.substr(start, comma - start), unit, text));
-      if (comma == std::string::npos) break;
-      start = comma + 1;
-    }
-  }
-  return speeds;
+namespace {
+
+// The speeds of a sweep, pull-out or map, within their bounds (options.h).
+void CheckSpeeds(const std::vector<double>& speeds, double runs) {
+  RequireInRange("--speeds", Range("speeds"), runs, fmt::format("({:g} runs)", runs));
+  for (double speed : speeds) RequireInRange("--speeds", Range("speed"), speed);
 }
 
-std::vector<SweepPoint> Sweep(const SweepOptions& o, std::ostream& progress) {
-  if (o.speeds.empty()) throw std::invalid_argument("--speeds: no speed to sweep");
-  if (!(o.settle >= 0) || !(o.measure > 0) || !(o.acceleration > 0)) {
-    throw std::invalid_argument(fmt::format(
-        "sweep: settle = {} s (>= 0), measure = {} s (> 0), acceleration = {} rad/s² (> 0)",
-        o.settle, o.measure, o.acceleration));
+// A sweep's timing within its bounds, and a measured window of at least 100 of the model's steps:
+// fewer would make a ripple and a frequency out of a handful of samples.
+void CheckSweepTiming(const SweepOptions& o, const mjModel* m) {
+  RequireInRange("--settle", Range("settle"), o.settle);
+  RequireInRange("--measure", Range("measure"), o.measure);
+  if (!(o.acceleration > 0) || !std::isfinite(o.acceleration)) {
+    throw std::invalid_argument(
+        fmt::format("sweep: acceleration = {} rad/s²: must be finite and > 0", o.acceleration));
   }
-  return OverSpeeds<SweepPoint>(o, "sweep", progress, RunOne);
+  if (!(o.measure >= 100 * m->opt.timestep)) {
+    throw std::invalid_argument(fmt::format(
+        "--measure {:g}: must hold at least 100 timesteps of the model ({:g} s)", o.measure,
+        100 * m->opt.timestep));
+  }
+}
+
+}  // namespace
+
+std::vector<SweepPoint> Sweep(const SweepOptions& o, std::ostream& progress) {
+  CheckSpeeds(o.speeds, static_cast<double>(o.speeds.size()));
+  return OverSpeeds<SweepPoint>(o, "sweep", progress, RunOne,
+                                [&](const mjModel* m) { CheckSweepTiming(o, m); });
 }
 
 std::vector<PullOutPoint> PullOut(const PullOutOptions& o, std::ostream& progress) {
-  if (o.speeds.empty()) throw std::invalid_argument("--speeds: no speed to measure");
-  if (!(o.settle >= 0) || !(o.acceleration > 0) || !(o.rate > 0) || !(o.max_torque > 0) ||
-      !std::isfinite(o.max_torque)) {
+  CheckSpeeds(o.speeds, static_cast<double>(o.speeds.size()));
+  RequireInRange("--rate", Range("rate"), o.rate);
+  RequireInRange("--max-torque", Range("max-torque"), o.max_torque);
+  RequireInRange("--settle", Range("settle"), o.settle);
+  if (!(o.max_torque / o.rate <= 1000) || !(o.acceleration > 0) || !std::isfinite(o.acceleration)) {
     throw std::invalid_argument(fmt::format(
-        "pullout: settle = {} s (>= 0), acceleration = {} rad/s² (> 0), rate = {} N·m/s (> 0), "
-        "max torque = {} N·m (finite, > 0)",
-        o.settle, o.acceleration, o.rate, o.max_torque));
+        "pullout: max torque {:g} N·m / rate {:g} N·m/s must be at most 1000 s, acceleration {:g} "
+        "rad/s² finite and > 0",
+        o.max_torque, o.rate, o.acceleration));
   }
-  return OverSpeeds<PullOutPoint>(o, "pullout", progress, RunPullOut);
+  return OverSpeeds<PullOutPoint>(o, "pullout", progress, RunPullOut, [](const mjModel*) {});
 }
 
 void WritePullOutCsv(const std::string& path, const std::vector<PullOutPoint>& points) {
@@ -285,12 +271,10 @@ ModelPtr WithParameter(const mjModel* m, const std::string& parameter, double va
     if (joint < 0) {
       throw std::invalid_argument(fmt::format("--vary {}: no joint named '{}'", parameter, name));
     }
-    if (!(value >= 0) || !std::isfinite(value)) {
-      throw std::invalid_argument(
-          fmt::format("--vary {}={}: a stiffness must be finite and >= 0", parameter, value));
-    }
+    RequireInRange("--vary", Range("stiffness"), value, fmt::format("{}={}", parameter, value));
     copy->jnt_stiffness[joint] = value;
   } else if (kind == "mass") {
+    RequireInRange("--vary", Range("mass"), value, fmt::format("{}={}", parameter, value));
     SetBodyMass(copy.get(), name, value);
   } else {
     throw std::invalid_argument(fmt::format(
@@ -304,8 +288,9 @@ ModelPtr WithParameter(const mjModel* m, const std::string& parameter, double va
 std::vector<MapPoint> Map(const MapOptions& o, std::ostream& progress) {
   const SweepOptions& s = o.sweep;
   if (o.values.empty()) throw std::invalid_argument("--vary: no value");
-  if (s.speeds.empty()) throw std::invalid_argument("--speeds: no speed to sweep");
+  CheckSpeeds(s.speeds, static_cast<double>(s.speeds.size() * o.values.size()));
   const StepperModel sm = LoadStepperModel(s.model, s.overrides);
+  CheckSweepTiming(s, sm.model.get());
   const StepperActuator& target = FindTarget(sm, s.actuator, s.model);
   std::vector<ModelPtr> models;
   for (double value : o.values) models.push_back(WithParameter(sm.model.get(), o.parameter, value));

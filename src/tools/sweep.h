@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "config_overrides.h"
+#include "options.h"  // ParseSpeedList
 
 namespace mjstepper::tools {
 
@@ -68,10 +69,6 @@ struct MapPoint {
 
 /// Throws std::invalid_argument naming a bad parameter or value.
 std::vector<MapPoint> Map(const MapOptions& options, std::ostream& progress);
-
-/// "10:200:2.5rpm" (from:to:step, inclusive), "50,100,150rpm", or one speed; units rpm, r/min,
-/// rad/s. Throws std::invalid_argument quoting the text.
-std::vector<double> ParseSpeedList(const std::string& text);
 
 /// Throws std::runtime_error / std::invalid_argument with a message for the user.
 std::vector<SweepPoint> Sweep(const SweepOptions& options, std::ostream& progress);

@@ -3,48 +3,68 @@
 #include <fmt/format.h>
 #include <png.h>
 
-#include <cstdio>
 #include <stdexcept>
-
-#include "csv_writer.h"
 
 namespace mjstepper::tools {
 
-VideoWriter::VideoWriter(std::string path, int width, int height, double fps)
-    : path_(std::move(path)), tmp_path_(path_ + ".tmp.mp4"), width_(width), height_(height) {
-  CheckOutputPath(path_);
-  // yuv420p needs even sizes: the scale filter rounds down by at most one pixel.
-  const std::string command = fmt::format(
-      "ffmpeg -loglevel error -y -f rawvideo -pix_fmt rgb24 -s {}x{} -r {} -i - "
-      "-vf 'scale=trunc(iw/2)*2:trunc(ih/2)*2' -c:v libx264 -preset veryfast -crf 26 "
-      "-pix_fmt yuv420p -movflags +faststart '{}'",
-      width, height, fps, tmp_path_);
-  pipe_ = popen(command.c_str(), "w");
-  if (pipe_ == nullptr) throw std::runtime_error(fmt::format("cannot start: {}", command));
+std::string FfmpegProgram() {
+  return FindProgram("ffmpeg", "--render", "install it (Debian: apt-get install ffmpeg)");
 }
 
-VideoWriter::~VideoWriter() {
-  if (pipe_ != nullptr) {
-    pclose(pipe_);
-    std::remove(tmp_path_.c_str());
-  }
+VideoWriter::VideoWriter(std::string path, int width, int height, double fps)
+    : output_(std::move(path)) {
+  // No shell: one argument each. ffmpeg writes into our exclusive temporary through its own
+  // descriptor 3 ("file:" so that no name is read as another protocol; -y because it exists);
+  // yuv420p needs even sizes: the scale filter rounds down by at most one pixel.
+  ffmpeg_.emplace(std::vector<std::string>{FfmpegProgram(),
+                                           "-nostdin",
+                                           "-loglevel",
+                                           "error",
+                                           "-y",
+                                           "-f",
+                                           "rawvideo",
+                                           "-pix_fmt",
+                                           "rgb24",
+                                           "-s",
+                                           fmt::format("{}x{}", width, height),
+                                           "-r",
+                                           fmt::format("{}", fps),
+                                           "-i",
+                                           "pipe:0",
+                                           "-vf",
+                                           "scale=trunc(iw/2)*2:trunc(ih/2)*2",
+                                           "-c:v",
+                                           "libx264",
+                                           "-preset",
+                                           "veryfast",
+                                           "-crf",
+                                           "26",
+                                           "-pix_fmt",
+                                           "yuv420p",
+                                           "-movflags",
+                                           "+faststart",
+                                           "-f",
+                                           "mp4",
+                                           "file:/dev/fd/3"},
+                  SpawnOptions{.pipe_stdin = true, .pass_fd = output_.fd()});
 }
 
 void VideoWriter::Write(const std::vector<std::uint8_t>& rgb) {
-  if (std::fwrite(rgb.data(), 1, rgb.size(), pipe_) != rgb.size()) {
-    throw std::runtime_error(fmt::format("ffmpeg stopped taking frames for {}", path_));
+  if (!ffmpeg_ || !ffmpeg_->Write(rgb.data(), rgb.size())) {
+    throw std::runtime_error(
+        fmt::format("ffmpeg stopped taking frames for {} (it says why above)", output_.path()));
   }
   ++frames_;
 }
 
 void VideoWriter::Finish() {
-  const int status = pclose(pipe_);
-  pipe_ = nullptr;
+  const int status = ffmpeg_->Wait();
+  ffmpeg_.reset();
   if (status != 0) {
-    std::remove(tmp_path_.c_str());
-    throw std::runtime_error(fmt::format("ffmpeg failed writing {} (status {})", path_, status));
+    throw std::runtime_error(
+        fmt::format("ffmpeg failed writing {} (exit status {})", output_.path(), status));
   }
-  MoveIntoPlace(tmp_path_, path_);
+  output_.Commit();
 }
 
 void WritePng(const std::string& path, const std::vector<std::uint8_t>& rgb, int width,
@@ -55,12 +75,11 @@ void WritePng(const std::string& path, const std::vector<std::uint8_t>& rgb, int
   image.height = height;
   image.format = PNG_FORMAT_RGB;
   image.flags = PNG_IMAGE_FLAG_FAST;  // lighter compression: frames are many and transient
-  const std::string tmp = path + ".tmp";
-  if (!png_image_write_to_file(&image, tmp.c_str(), 0, rgb.data(), 3 * width, nullptr)) {
-    std::remove(tmp.c_str());
+  OutputFile out(path);
+  if (!png_image_write_to_stdio(&image, out.stream(), 0, rgb.data(), 3 * width, nullptr)) {
     throw std::runtime_error(fmt::format("cannot write {}: {}", path, image.message));
   }
-  MoveIntoPlace(tmp, path);
+  out.Commit();
 }
 
 }  // namespace mjstepper::tools

@@ -1,20 +1,27 @@
-// Frames out: an MP4 through the Debian `ffmpeg` program (a pipe of raw RGB frames into libx264),
-// and PNG files through libpng. Both write to a temporary name and rename when complete.
+// Frames out: an MP4 through the Debian `ffmpeg` program (raw RGB frames on its standard input,
+// libx264 out), started without a shell, and PNG files through libpng. Both are OutputFiles
+// (output_file.h): written to an exclusive temporary beside the target, renamed when complete.
 #ifndef MJSTEPPER_TOOLS_VIDEO_WRITER_H_
 #define MJSTEPPER_TOOLS_VIDEO_WRITER_H_
 
 #include <cstdint>
-#include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "output_file.h"
+#include "subprocess.h"
+
 namespace mjstepper::tools {
+
+/// The ffmpeg program on PATH; throws naming it and the Debian package when it is missing.
+std::string FfmpegProgram();
 
 class VideoWriter {
  public:
-  /// Starts ffmpeg writing `path`.tmp.mp4; throws std::runtime_error when it cannot start.
+  /// Starts ffmpeg writing `path`'s temporary; throws std::runtime_error when it cannot start.
   VideoWriter(std::string path, int width, int height, double fps);
-  ~VideoWriter();  ///< without Finish: stops ffmpeg and removes the temporary file
+  ~VideoWriter() = default;  ///< without Finish: ffmpeg is stopped, the temporary removed
   VideoWriter(const VideoWriter&) = delete;
   VideoWriter& operator=(const VideoWriter&) = delete;
 
@@ -25,9 +32,8 @@ class VideoWriter {
   long frames() const { return frames_; }
 
  private:
-  std::string path_, tmp_path_;
-  int width_, height_;
-  std::FILE* pipe_ = nullptr;
+  OutputFile output_;
+  std::optional<Subprocess> ffmpeg_;  // after output_: stopped before the temporary is removed
   long frames_ = 0;
 };
 

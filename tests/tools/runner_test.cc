@@ -91,7 +91,7 @@ TEST(Runner, AngleProfileOnAVelocityStepperIsRefused) {
 TEST(Runner, InfiniteDurationIsRefused) {
   const Result r = RunCli("run " + kModel + " --duration inf");
   EXPECT_NE(r.status, 0);
-  EXPECT_THAT(r.output, HasSubstr("--duration = inf: must be finite and > 0"));
+  EXPECT_THAT(r.output, HasSubstr("--duration: \"inf\" is not a finite number"));
 }
 
 TEST(Runner, BadProfileOrActuatorFailsWithoutOutput) {
@@ -249,10 +249,11 @@ TEST(Runner, PlotFailureIsOneLineNotATraceback) {
   const auto csv = TempDir() / "plot_me.csv";
   Result r = RunCli("run " + kModel + " --duration 0.01 --quiet --log " + csv.string());
   ASSERT_EQ(r.status, 0) << r.output;
-  r = RunCli("plot " + csv.string() + " --out /proc/mjstepper/plot.png");  // cannot be made
+  // A place that cannot be made is refused by the command itself, before the plotter starts.
+  r = RunCli("plot " + csv.string() + " --out /proc/mjstepper/plot.png");
   EXPECT_NE(r.status, 0);
-  EXPECT_THAT(r.output, AllOf(HasSubstr("mjstepper plot:"), HasSubstr("/proc/mjstepper"),
-                              HasSubstr("plotting /proc/mjstepper/plot.png failed")));
+  EXPECT_THAT(r.output, AllOf(HasSubstr("mjstepper: cannot write /proc/mjstepper/plot.png"),
+                              HasSubstr("/proc/mjstepper is not a directory")));
   EXPECT_THAT(r.output, ::testing::Not(HasSubstr("Traceback")));
   const auto garbage = TempDir() / "garbage.csv";
   std::ofstream(garbage) << "time[s],x\n0,not a number\n";
@@ -303,7 +304,7 @@ TEST(PullOut, WritesCsvAndPngAndNamesBadOptions) {
   EXPECT_TRUE(IsPng(replot));
   r = RunCli("pullout " + kModel + " --speeds 50rpm --rate -1 --quiet --out " + prefix.string());
   EXPECT_NE(r.status, 0);
-  EXPECT_THAT(r.output, HasSubstr("rate = -1"));
+  EXPECT_THAT(r.output, HasSubstr("--rate: -1 is not in [0.001, 10000] N·m/s"));
 }
 
 // The arm's pick move (base +0.5, shoulder −0.6, elbow +0.8 rad at the joints; the drives' own

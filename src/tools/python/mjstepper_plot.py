@@ -34,6 +34,10 @@ def read_csv(path):
 
 
 def save(fig, out):
+    if out.startswith("/dev/fd/"):
+        # The mjstepper command's own temporary, made exclusively and renamed by it (plot.cc).
+        fig.savefig(out, dpi=110, format="png")
+        return
     tmp = out + ".tmp.png"
     try:
         os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)

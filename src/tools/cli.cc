@@ -1,0 +1,295 @@
+#include "cli.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/attributes.h"
+#include "core/command_profile.h"
+#include "output_file.h"
+
+namespace mjstepper::tools {
+namespace {
+
+// A CLI11 validator: a finite number within the named range (NaN and inf fail); its description,
+// "in [lo, hi] unit", shows in --help.
+CLI::Validator InRange(const char* name) {
+  const OptionRange& r = Range(name);
+  return CLI::Validator(
+      [&r](std::string& text) -> std::string {
+        double v = 0;
+        if (!ParseFiniteDouble(text, &v)) return fmt::format("\"{}\" is not a finite number", text);
+        if (v >= r.lo && v <= r.hi) return "";
+        return fmt::format("{} is not in [{:g}, {:g}] {}", text, r.lo, r.hi, r.unit);
+      },
+      fmt::format("in [{:g}, {:g}] {}", r.lo, r.hi, r.unit), name);
+}
+
+const char* kSetHelp =
+    "ACTUATOR.KEY=VALUE: change a stepper's <config> for this run, e.g. shaft.damping=all or "
+    "shaft.drive=servo (repeatable)";
+
+}  // namespace
+
+CommandLine::CommandLine() : app_("mjstepper: stepper motors and their drives on MuJoCo joints") {
+  app_.require_subcommand(1);
+  Command& c = c_;
+
+  run_ = app_.add_subcommand("run", "step a model with command profiles, log to CSV");
+  run_->add_option("model", c.run.model, "MJCF model")->required()->check(CLI::ExistingFile);
+  run_->add_option("--duration", c.run.duration, "simulated time, s")
+      ->required()
+      ->check(InRange("duration"));
+  run_->add_option("--ctrl", ctrl_,
+                   "ACTUATOR=PROFILE, e.g. 'shaft=ramp(0rpm,200rpm,0.8s)'; profiles: constant(X), "
+                   "ramp(A,B,T), trapezoid(V,Ta,Tc,Td); units rpm, rad/s, rad, deg, s; speeds "
+                   "within ±1e4 rad/s, angles ±1e7 rad, times 1e6 s");
+  run_->add_option("--log", c.run.log, "CSV log (a regular file or nothing; written whole)");
+  run_->add_option("--render", c.run.render.video, "MP4 video of the run (ffmpeg)");
+  run_->add_option("--frames", c.run.render.frames_dir, "folder for PNG frames");
+  run_->add_option("--camera", c.run.render.renderer.camera,
+                   "named camera of the model (default: the free camera)");
+  run_->add_option("--size", size_, "frame size WxH, each in [16, 8192] pixels")
+      ->default_val(size_);
+  run_->add_option("--fps", c.run.render.fps, "video frames per second")
+      ->default_val(30)
+      ->check(InRange("fps"));
+  run_->add_option("--playback", c.run.render.playback,
+                   "simulated seconds per video second (0.1: ten times slower)")
+      ->default_val(1.0)
+      ->check(InRange("playback"));
+  run_->add_option("--overlay", c.run.render.overlay_steppers,
+                   "stepper whose plots are drawn (at most two; default: the first two)");
+  run_->add_flag("--no-overlay", no_overlay_, "no plots or text on the frames");
+  run_->add_option("--plot", c.run_plot, "PNG plot of the run (needs --log)");
+  run_->add_option("--log-every", c.run.log_every, "log one row every N steps")
+      ->default_val(1)
+      ->check(InRange("log-every"));
+  run_->add_flag("--quiet", quiet_, "no progress line");
+  run_->add_option("--set", sets_, kSetHelp);
+  run_->add_option("--keyframe", c.run.keyframe,
+                   "start from the model's keyframe of this name (the drives start at rest on "
+                   "their rotors there)");
+  run_->add_flag("--allow-coarse", c.run.allow_coarse,
+                 "run although a stepper's timestep is too coarse for its resonance (ωn·h > 0.2, "
+                 "see info)");
+  run_->add_option("--mass", masses_,
+                   "BODY=KG: a body's mass for this run, its inertia scaled with it, e.g. "
+                   "payload=2 in models/arm3.xml (repeatable; KG in [1e-9, 1e6])");
+  run_->add_option("--load", loads_,
+                   "ACTUATOR=TORQUE: the constant load torque τl (N·m, against positive motion) "
+                   "of a load actuator, <general gainprm=\"0\" biastype=\"affine\">, e.g. load=0.1 "
+                   "in models/kim_*.xml (repeatable; TORQUE in [-1e4, 1e4])");
+
+  sweep_ = app_.add_subcommand("sweep", "constant-speed runs over a speed list: the resonance map");
+  map_ = app_.add_subcommand(
+      "map", "resonance map: the sweep over a grid of speed × one load parameter, on all cores");
+  pullout_ = app_.add_subcommand(
+      "pullout", "pull-out torque curve: at each speed, a rising load torque until the first slip");
+  for (CLI::App* sub : {sweep_, map_, pullout_}) {
+    SweepOptions* so = sub == map_ ? &c.map.sweep : &c.sweep;
+    std::string* model = sub == pullout_ ? &c.pullout.model : &so->model;
+    std::string* actuator = sub == pullout_ ? &c.pullout.actuator : &so->actuator;
+    int* threads = sub == pullout_ ? &c.pullout.threads : &so->threads;
+    sub->add_option("model", *model, "MJCF model")->required()->check(CLI::ExistingFile);
+    sub->add_option("--speeds", c.speeds_text,
+                    "from:to:step or a,b,c with a unit (rpm, r/min, rad/s): 10:200:2.5rpm; each "
+                    "within ±1e4 rad/s, at most 1e5 speeds")
+        ->required();
+    sub->add_option("--actuator", *actuator, "the stepper (default: the only one)");
+    sub->add_option("--out", c.out, "output prefix: writes PREFIX.csv and PREFIX.png")->required();
+    if (sub != pullout_) {
+      sub->add_option("--settle", so->settle, "s after reaching speed before measuring")
+          ->default_val(so->settle)
+          ->check(InRange("settle"));
+      sub->add_option("--measure", so->measure,
+                      "s measured at each speed (at least 100 timesteps of the model)")
+          ->default_val(so->measure)
+          ->check(InRange("measure"));
+    }
+    sub->add_option("--threads", *threads, "worker threads (default: one per core)")
+        ->check(InRange("threads"));
+    sub->add_option("--set", sets_, kSetHelp);
+    sub->add_flag("--quiet", quiet_, "no progress line");
+  }
+  map_->add_option("--vary", vary_,
+                   "the load parameter and its values: stiffness:JOINT=a,b,c (N·m/rad or N/m, "
+                   "each in [1e-9, 1e12]) or mass:BODY=a,b,c (kg, each in [1e-9, 1e6], inertia "
+                   "scaled with it)")
+      ->required();
+  pullout_->add_option("--rate", c.pullout.rate, "N·m/s: how fast the load torque rises")
+      ->default_val(c.pullout.rate)
+      ->check(InRange("rate"));
+  pullout_->add_option("--max-torque", c.pullout.max_torque, "N·m: stop a run that holds this")
+      ->default_val(c.pullout.max_torque)
+      ->check(InRange("max-torque"));
+
+  identify_ = app_.add_subcommand(
+      "identify", "estimate detent harmonics and static friction from constant-speed runs");
+  identify_->add_option("model", c.identify.model, "MJCF with the stepper and a turning actuator")
+      ->required()
+      ->check(CLI::ExistingFile);
+  identify_->add_option("--actuator", c.identify.actuator, "the stepper")->default_val("shaft");
+  identify_->add_option("--dyno", c.identify.dyno, "the actuator that turns the shaft (rad/s)")
+      ->default_val("dyno");
+  c.speeds_text = "10,30rpm";
+  identify_->add_option("--speeds", c.speeds_text, "two or more speeds, e.g. 10,30rpm")
+      ->default_val(c.speeds_text);
+  identify_->add_option("--orders", c.identify.orders, "harmonic orders to fit, each once")
+      ->default_val(std::vector<int>{4, 2, 1})
+      ->check(InRange("orders"));
+
+  plot_ = app_.add_subcommand("plot", "PNG plot of run logs or sweep CSVs");
+  plot_->add_option("csv", c.plot_csvs, "CSV written by run, sweep or pullout")
+      ->required()
+      ->check(CLI::ExistingFile);
+  plot_->add_option("--out", c.out, "PNG")->required();
+  plot_->add_option("--labels", c.plot_labels, "one label per sweep CSV");
+  plot_->add_option("--title", c.plot_title, "title");
+  plot_->add_flag("--versus-speed", c.versus_speed,
+                  "run logs: velocity errors against commanded speed instead of time");
+
+  info_ = app_.add_subcommand("info", "list the steppers of a model and check it");
+  info_->add_option("model", c.model, "MJCF model")->required()->check(CLI::ExistingFile);
+
+  tables_ = app_.add_subcommand(
+      "tables",
+      "print the drive, attribute, signal and option tables (Markdown), or --write them "
+      "into a README between its <!-- BEGIN x --> / <!-- END x --> markers");
+  tables_->add_option("--write", c.tables_file, "README to update in place")
+      ->check(CLI::ExistingFile);
+}
+
+const Command& CommandLine::Parse(int argc, const char* const* argv) {
+  app_.parse(argc, argv);
+  Check();
+  return c_;
+}
+
+void CommandLine::Check() {
+  Command& c = c_;
+  std::vector<ConfigOverride> overrides;
+  for (const std::string& s : sets_) overrides.push_back(ParseOverride(s));
+  if (*run_) {
+    c.kind = CommandKind::kRun;
+    RunOptions& run = c.run;
+    run.overrides = overrides;
+    run.progress = !quiet_;
+    for (const std::string& item : ctrl_) {
+      const size_t eq = item.find('=');
+      if (eq == std::string::npos || eq == 0) {
+        throw std::invalid_argument(fmt::format("--ctrl {}: expected ACTUATOR=PROFILE", item));
+      }
+      const std::string profile = item.substr(eq + 1);
+      try {
+        CommandProfile::Parse(profile);  // its bounds, before any work
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(fmt::format("--ctrl {}: {}", item, e.what()));
+      }
+      run.ctrl[item.substr(0, eq)] = profile;
+    }
+    run.masses = NamedNumbers("--mass", "BODY=KG, KG a finite number", Range("mass"), masses_);
+    run.loads = NamedNumbers("--load", "ACTUATOR=TORQUE, TORQUE a finite number in N·m",
+                             Range("load"), loads_);
+    ParseSize(size_, &run.render.renderer.width, &run.render.renderer.height);
+    run.render.overlays = !no_overlay_;
+    if (!c.run_plot.empty() && run.log.empty()) {
+      throw std::invalid_argument("--plot needs --log: the plot is drawn from the log");
+    }
+    if (run.render.enabled()) {
+      const double frames = std::floor(run.duration * run.render.fps / run.render.playback) + 1;
+      RequireInRange("--duration · --fps / --playback", Range("frames"), frames,
+                     fmt::format("{:g} s · {:g} /s / {:g} = {:g} frames", run.duration,
+                                 run.render.fps, run.render.playback, frames));
+    }
+    std::vector<std::pair<std::string, std::string>> outputs;
+    for (const auto& [option, path] : {std::pair<const char*, const std::string&>{"--log", run.log},
+                                       {"--plot", c.run_plot},
+                                       {"--render", run.render.video},
+                                       {"--frames", run.render.frames_dir}}) {
+      if (!path.empty()) outputs.emplace_back(option, path);
+    }
+    CheckDistinctOutputs(outputs);
+    for (const auto& [option, path] : outputs) {
+      (option == "--frames" ? c.output_dirs : c.outputs).push_back(path);
+    }
+    return;
+  }
+  if (*sweep_ || *map_) {
+    SweepOptions& so = *sweep_ ? c.sweep : c.map.sweep;
+    c.kind = *sweep_ ? CommandKind::kSweep : CommandKind::kMap;
+    so.speeds = ParseSpeedList(c.speeds_text);
+    so.progress = !quiet_;
+    so.overrides = overrides;
+    if (*map_) {
+      const size_t eq = vary_.find('=');
+      const size_t colon = vary_.find(':');
+      const std::string kind = vary_.substr(0, std::min(colon, eq));
+      if (eq == std::string::npos || colon > eq || (kind != "stiffness" && kind != "mass")) {
+        throw std::invalid_argument(
+            fmt::format("--vary {}: expected stiffness:JOINT=a,b,c or mass:BODY=a,b,c", vary_));
+      }
+      c.map.parameter = vary_.substr(0, eq);
+      std::stringstream list(vary_.substr(eq + 1));
+      for (std::string item; std::getline(list, item, ',');) {
+        double value = 0;
+        if (!ParseFiniteDouble(item, &value)) {
+          throw std::invalid_argument(
+              fmt::format("--vary {}: \"{}\" is not a finite number", vary_, item));
+        }
+        RequireInRange("--vary", Range(kind), value, fmt::format("{} ({})", vary_, item));
+        c.map.values.push_back(value);
+      }
+      if (c.map.values.empty()) {
+        throw std::invalid_argument(fmt::format("--vary {}: no value", vary_));
+      }
+      const double runs = static_cast<double>(c.map.values.size() * so.speeds.size());
+      RequireInRange("--speeds × --vary", Range("speeds"), runs, fmt::format("{:g} runs", runs));
+    }
+    c.outputs = {c.out + ".csv", c.out + ".png"};  // --out PREFIX
+    return;
+  }
+  if (*pullout_) {
+    c.kind = CommandKind::kPullOut;
+    c.pullout.speeds = ParseSpeedList(c.speeds_text);
+    c.pullout.progress = !quiet_;
+    c.pullout.overrides = overrides;
+    if (c.pullout.max_torque / c.pullout.rate > 1000) {
+      throw std::invalid_argument(fmt::format(
+          "--max-torque {:g} / --rate {:g} = {:g} s: the load may rise for at most 1000 s of "
+          "simulated time per speed",
+          c.pullout.max_torque, c.pullout.rate, c.pullout.max_torque / c.pullout.rate));
+    }
+    c.outputs = {c.out + ".csv", c.out + ".png"};  // --out PREFIX
+    return;
+  }
+  if (*identify_) {
+    c.kind = CommandKind::kIdentify;
+    c.identify.speeds = ParseSpeedList(c.speeds_text);
+    c.identify.overrides = overrides;
+    return;
+  }
+  if (*plot_) {
+    c.kind = CommandKind::kPlot;
+    std::vector<std::pair<std::string, std::string>> files;
+    for (const std::string& csv : c.plot_csvs) files.emplace_back("csv", csv);
+    files.emplace_back("--out", c.out);
+    CheckDistinctOutputs(files);
+    c.outputs = {c.out};
+    return;
+  }
+  if (*info_) {
+    c.kind = CommandKind::kInfo;
+    return;
+  }
+  c.kind = CommandKind::kTables;
+}
+
+void CheckOutputs(const Command& c) {
+  for (const std::string& path : c.outputs) CheckOutputPath(path);
+  for (const std::string& dir : c.output_dirs) CheckOutputDirectory(dir);
+}
+
+}  // namespace mjstepper::tools

@@ -1,0 +1,73 @@
+// The mjstepper command line: every subcommand, option and bound, parsed and checked in one place
+// before any work (the command, its tests and the command-line fuzzer all use this parser). No
+// MuJoCo here: what needs the model (a timestep, an actuator's name) is checked when it loads.
+#ifndef MJSTEPPER_TOOLS_CLI_H_
+#define MJSTEPPER_TOOLS_CLI_H_
+
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+#include "identify.h"
+#include "options.h"
+#include "output_file.h"
+#include "runner.h"
+#include "sweep.h"
+
+namespace mjstepper::tools {
+
+enum class CommandKind { kRun, kSweep, kMap, kPullOut, kIdentify, kPlot, kInfo, kTables };
+
+/// A parsed, checked command.
+struct Command {
+  CommandKind kind = CommandKind::kInfo;
+  RunOptions run;
+  std::string run_plot;  ///< PNG of the run's log; empty: none
+  SweepOptions sweep;
+  MapOptions map;
+  PullOutOptions pullout;
+  IdentifyOptions identify;
+  std::string speeds_text;  ///< --speeds as given (sweep, map, pullout, identify)
+  std::string out;          ///< output prefix (sweep, map, pullout) or PNG (plot)
+  std::vector<std::string> plot_csvs, plot_labels;
+  std::string plot_title;
+  bool versus_speed = false;
+  std::string model;  ///< info
+  std::string tables_file;
+  std::vector<std::string> outputs;      ///< files the command will write
+  std::vector<std::string> output_dirs;  ///< folders it will write into (--frames)
+};
+
+/// Checks, before any work, that each output may be written (output_file.h), making missing
+/// parent folders. (Parse only reads the file system.)
+void CheckOutputs(const Command& command);
+
+class CommandLine {
+ public:
+  CommandLine();
+  CommandLine(const CommandLine&) = delete;
+  CommandLine& operator=(const CommandLine&) = delete;
+
+  /// Parses and checks argv. Throws CLI::ParseError (including --help: Exit prints it) for what
+  /// CLI11 checks (unknown options, a bound of an option), std::invalid_argument for the rest,
+  /// each naming the option and its bound.
+  const Command& Parse(int argc, const char* const* argv);
+  /// Prints a CLI::ParseError as CLI11 does; its exit status.
+  int Exit(const CLI::ParseError& e) { return app_.exit(e); }
+  CLI::App& app() { return app_; }
+
+ private:
+  void Check();  // after CLI11: what its validators cannot see alone
+
+  CLI::App app_;
+  Command c_;
+  CLI::App *run_, *sweep_, *map_, *pullout_, *identify_, *plot_, *info_, *tables_;
+  // Raw texts parsed by Check.
+  std::vector<std::string> ctrl_, sets_, masses_, loads_;
+  std::string size_ = "1280x720", vary_;
+  bool quiet_ = false, no_overlay_ = false;
+};
+
+}  // namespace mjstepper::tools
+
+#endif  // MJSTEPPER_TOOLS_CLI_H_

@@ -1,0 +1,149 @@
+#include "options.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "core/attributes.h"
+#include "core/command_profile.h"
+#include "core/units.h"
+
+namespace mjstepper::tools {
+namespace {
+
+// The ranges. A bound is where a value beyond it is a typing error or an absurd amount of work;
+// each says why.
+constexpr OptionRange kRanges[] = {
+    {"duration", 1e-6, 1e6, "s", "simulated time; also at least one timestep of the model"},
+    {"steps", 1, 1e12, "steps", "duration / timestep of a run"},
+    {"fps", 1, 1000, "frames/s", "video frames per second of video"},
+    {"playback", 1e-4, 1e4, "s/s", "simulated seconds per video second"},
+    {"frames", 1, kMaxFrames, "frames", "duration · fps / playback: frames a run renders"},
+    {"size", 16, 8192, "pixels", "frame width and height"},
+    {"log-every", 1, 1e9, "steps", "one log row every N steps"},
+    {"mass", 1e-9, 1e6, "kg", "a body's mass (--mass, mass:BODY of map)"},
+    {"load", -1e4, 1e4, "N·m", "a load torque (--load)"},
+    {"stiffness", 1e-9, 1e12, "N·m/rad or N/m",
+     "a joint's spring stiffness (stiffness:JOINT of map)"},
+    {"speed", -kMaxProfileSpeed, kMaxProfileSpeed, "rad/s",
+     "each speed of a list, and of a --ctrl profile (95 493 r/min)"},
+    {"speeds", 1, kMaxRuns, "speeds", "how many speeds a list holds; speeds × values of a map"},
+    {"settle", 0, 60, "s", "at each speed before measuring (sweep, map)"},
+    {"measure", 0.01, 60, "s", "measured at each speed (sweep, map); at least 100 timesteps"},
+    {"threads", 0, 256, "threads", "worker threads (0: one per core)"},
+    {"rate", 1e-3, 1e4, "N·m/s", "how fast pullout's load torque rises"},
+    {"max-torque", 1e-6, 1e4, "N·m", "pullout's highest load torque; max-torque / rate <= 1000 s"},
+    {"orders", 1, 64, "", "detent harmonic orders identify fits, each once"},
+};
+
+}  // namespace
+
+std::span<const OptionRange> OptionRanges() { return kRanges; }
+
+const OptionRange& Range(const std::string& name) {
+  for (const OptionRange& r : kRanges) {
+    if (name == r.name) return r;
+  }
+  throw std::logic_error("no option range named " + name);
+}
+
+void RequireInRange(const std::string& option, const OptionRange& range, double value,
+                    const std::string& shown) {
+  if (value >= range.lo && value <= range.hi) return;
+  throw std::invalid_argument(fmt::format("{} {}: must be in [{:g}, {:g}]{}{}", option,
+                                          shown.empty() ? fmt::format("{:g}", value) : shown,
+                                          range.lo, range.hi, *range.unit ? " " : "", range.unit));
+}
+
+std::vector<double> ParseSpeedList(const std::string& text, const std::string& option) {
+  size_t unit_at = text.find_last_of("0123456789.") + 1;
+  if (unit_at == 0 || unit_at > text.size()) unit_at = text.size();
+  const std::string unit = text.substr(unit_at);
+  const std::string body = text.substr(0, unit_at);
+  if (unit != "rpm" && unit != "r/min" && unit != "rad/s") {
+    throw std::invalid_argument(
+        fmt::format("{} {}: end with a unit: rpm, r/min or rad/s", option, text));
+  }
+  auto speed = [&](const std::string& number) {
+    double v = 0;
+    if (!ParseFiniteDouble(number, &v)) {
+      throw std::invalid_argument(
+          fmt::format("{} {}: \"{}\" is not a finite number", option, text, number));
+    }
+    v = unit == "rad/s" ? v : RpmToRadPerSec(v);
+    RequireInRange(option, Range("speed"), v, fmt::format("{} ({}{})", text, number, unit));
+    return v;
+  };
+  std::vector<double> speeds;
+  if (body.find(':') != std::string::npos) {
+    const size_t a = body.find(':'), b = body.find(':', a + 1);
+    if (b == std::string::npos || body.find(':', b + 1) != std::string::npos) {
+      throw std::invalid_argument(fmt::format("{} {}: expected from:to:step", option, text));
+    }
+    const double from = speed(body.substr(0, a));
+    const double to = speed(body.substr(a + 1, b - a - 1));
+    const double step = speed(body.substr(b + 1));
+    if (!(step > 0) || to < from) {
+      throw std::invalid_argument(fmt::format("{} {}: need step > 0 and to >= from", option, text));
+    }
+    const double count = std::floor((to - from) / step + 1e-9) + 1;  // finite: all are bounded
+    RequireInRange(option, Range("speeds"), count, fmt::format("{} ({:g} speeds)", text, count));
+    for (long k = 0; k < static_cast<long>(count); ++k) speeds.push_back(from + k * step);
+  } else {
+    size_t start = 0;
+    while (start <= body.size()) {
+      const size_t comma = body.find(',', start);
+      speeds.push_back(speed(body.substr(start, comma - start)));
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+    RequireInRange(option, Range("speeds"), static_cast<double>(speeds.size()),
+                   fmt::format("({} speeds)", speeds.size()));
+  }
+  return speeds;
+}
+
+void ParseSize(const std::string& text, int* width, int* height) {
+  const size_t x = text.find('x');
+  auto integer = [&](const std::string& s) {
+    if (s.empty() || s.size() > 6 || !std::all_of(s.begin(), s.end(), ::isdigit)) {
+      throw std::invalid_argument(fmt::format("--size {}: expected WxH, e.g. 640x480", text));
+    }
+    const int v = std::stoi(s);
+    RequireInRange("--size", Range("size"), v, text);
+    return v;
+  };
+  if (x == std::string::npos) {
+    throw std::invalid_argument(fmt::format("--size {}: expected WxH, e.g. 640x480", text));
+  }
+  *width = integer(text.substr(0, x));
+  *height = integer(text.substr(x + 1));
+}
+
+std::map<std::string, double> NamedNumbers(const std::string& option, const char* form,
+                                           const OptionRange& range,
+                                           const std::vector<std::string>& items) {
+  std::map<std::string, double> out;
+  for (const std::string& item : items) {
+    const size_t eq = item.find('=');
+    double value = 0;
+    if (eq == std::string::npos || eq == 0 || !ParseFiniteDouble(item.substr(eq + 1), &value)) {
+      throw std::invalid_argument(fmt::format("{} {}: expected {}", option, item, form));
+    }
+    RequireInRange(option, range, value, item);
+    out[item.substr(0, eq)] = value;
+  }
+  return out;
+}
+
+std::string OptionRangeTableMarkdown() {
+  std::string out = "| bound | least | most | unit | what |\n|---|---|---|---|---|\n";
+  for (const OptionRange& r : kRanges) {
+    out += fmt::format("| `{}` | {:g} | {:g} | {} | {} |\n", r.name, r.lo, r.hi, r.unit, r.why);
+  }
+  return out;
+}
+
+}  // namespace mjstepper::tools
