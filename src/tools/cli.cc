@@ -116,7 +116,7 @@ CommandLine::CommandLine() : app_("mjstepper: stepper motors and their drives on
   }
   map_->add_option("--vary", vary_,
                    "the load parameter and its values: stiffness:JOINT=a,b,c (N·m/rad or N/m, "
-                   "each in [1e-9, 1e12]) or mass:BODY=a,b,c (kg, each in [1e-9, 1e6], inertia "
+                   "each in [0, 1e12]) or mass:BODY=a,b,c (kg, each in [1e-9, 1e6], inertia "
                    "scaled with it)")
       ->required();
   pullout_->add_option("--rate", c.pullout.rate, "N·m/s: how fast the load torque rises")
