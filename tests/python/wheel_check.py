@@ -1,5 +1,7 @@
 """Run inside a fresh virtual environment where only the mjstepper wheel (and what it requires) is
-installed: import, signals by name, presets, the library's run-time needs, the version check."""
+installed: import, signals by name, presets, the library's run-time needs, the version check, the
+checks of signals' and configure's arguments (issue 16), and the Ray sweep and map against the C++
+ones."""
 import math
 import os
 import subprocess
@@ -7,6 +9,7 @@ import sys
 import unittest
 
 import mujoco
+import numpy as np
 
 import mjstepper
 
@@ -125,6 +128,81 @@ class RaySweep(unittest.TestCase):
         for row, expected in zip(rows, cpp[1:]):
             for got, want in zip(row, expected):
                 self.assertLessEqual(abs(got - float(want)), 1e-12 * max(1.0, abs(float(want))))
+
+
+class HostileArguments(unittest.TestCase):
+    """Issue 16: every argument of the package's functions is checked where it is given, and the
+    error names it (and its range), instead of failing later or elsewhere."""
+
+    def compiled(self, plain=False):
+        spec = mujoco.MjSpec.from_file(os.path.join(SOURCE, "models", "tsui_rigid.xml"))
+        mjstepper.add_signal_sensors(spec)
+        if plain:  # a second actuator, not a stepper
+            spec.add_actuator(name="plain", target="shaft", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        return model, data
+
+    def test_signals_takes_any_integer_id_but_a_bool(self):
+        model, data = self.compiled()
+        by_name = mjstepper.signals(model, data, "shaft")
+        for actuator in (0, np.int64(0), np.int32(0), np.uint8(0)):
+            self.assertEqual(mjstepper.signals(model, data, actuator), by_name, repr(actuator))
+        for actuator in (True, np.bool_(False), 0.0, None, b"shaft"):
+            with self.assertRaises(TypeError) as ctx:
+                mjstepper.signals(model, data, actuator)
+            self.assertIn("actuator", str(ctx.exception))
+
+    def test_signals_names_an_id_out_of_range_and_a_non_stepper(self):
+        model, data = self.compiled(plain=True)
+        for actuator in (99, np.int64(2), -1):
+            with self.assertRaises(IndexError) as ctx:
+                mjstepper.signals(model, data, actuator)
+            message = str(ctx.exception)
+            self.assertIn(f"no actuator {int(actuator)}", message)
+            self.assertIn("[0, model.nu) = [0, 2)", message)
+            self.assertNotIn("sensor", message)
+        for actuator in ("plain", 1):
+            with self.assertRaises(ValueError) as ctx:
+                mjstepper.signals(model, data, actuator)
+            self.assertIn("'plain' (id 1) is not an mjstepper stepper", str(ctx.exception))
+        self.assertEqual(tuple(mjstepper.signals(model, data, 0)), mjstepper.SIGNALS)
+
+    def test_configure_rejects_an_unknown_attribute_at_once(self):
+        spec = mujoco.MjSpec.from_file(os.path.join(SOURCE, "models", "tsui_rigid.xml"))
+        before = dict(spec.actuators[0].plugin.config)
+        with self.assertRaises(ValueError) as ctx:
+            mjstepper.configure(spec, "shaft", hold_current=1.5, hold_curent=1)
+        self.assertIn("'hold_curent'", str(ctx.exception))
+        self.assertIn("did you mean hold_current", str(ctx.exception))
+        self.assertEqual(dict(spec.actuators[0].plugin.config), before)  # nothing set
+        for attribute, value in (("hold_current", None), ("hold_current", True),
+                                 ("microsteps", 2.5), ("detent", [])):
+            with self.assertRaises(TypeError) as ctx:
+                mjstepper.configure(spec, "shaft", **{attribute: value})
+            self.assertIn(f"{attribute} = {value!r}", str(ctx.exception))
+        self.assertEqual(dict(spec.actuators[0].plugin.config), before)
+        mjstepper.configure(spec, "shaft", hold_current=np.float64(1.5), microsteps=np.int64(16),
+                            gauge=False, detent="none")
+        self.assertEqual({k: v for k, v in spec.actuators[0].plugin.config.items()
+                          if k not in before},
+                         {"hold_current": "1.5", "microsteps": "16", "gauge": "off",
+                          "detent": "none"})
+        spec.compile()
+
+    def test_attribute_names_are_the_plugins_table(self):
+        """mjstepper.ATTRIBUTES (generated from the C++ table) lists plugin/README.md's table,
+        which is generated from the same table (and checked by a C++ test)."""
+        with open(os.path.join(SOURCE, "plugin", "README.md"), encoding="utf-8") as f:
+            lines = f.read().split("| Attribute | Type |", 1)[1].splitlines()[2:]
+        documented = []
+        for line in lines:
+            if not line.startswith("| `"):
+                break
+            documented.append(line.split("`")[1])
+        self.assertEqual(mjstepper.ATTRIBUTES, tuple(documented))
+        self.assertEqual(mjstepper.ATTRIBUTE_UNITS["hold_current"], "A")
 
 
 if __name__ == "__main__":
