@@ -1,12 +1,12 @@
 """Run inside a fresh virtual environment where only the mjstepper wheel (and what it requires) is
 installed: import, signals by name, presets, the library's run-time needs, the version check, the
-checks of signals' and configure's arguments (issue 16), and the Ray sweep and map against the C++
-ones."""
+checks of every argument (issue 16), and the Ray sweep and map against the C++ ones."""
 import math
 import os
 import subprocess
 import sys
 import unittest
+from unittest import mock
 
 import mujoco
 import numpy as np
@@ -203,6 +203,83 @@ class HostileArguments(unittest.TestCase):
             documented.append(line.split("`")[1])
         self.assertEqual(mjstepper.ATTRIBUTES, tuple(documented))
         self.assertEqual(mjstepper.ATTRIBUTE_UNITS["hold_current"], "A")
+
+
+class SweepArguments(unittest.TestCase):
+    """sweep and resonance_map check every argument before any work, without Ray; no run starts."""
+    MODEL = os.path.join(SOURCE, "models", "tsui_rigid.xml")
+    COUPLING = os.path.join(SOURCE, "models", "tsui_coupling.xml")
+
+    def assertRejects(self, error, words, function=None, **arguments):
+        arguments.setdefault("speeds", [5.0])
+        with mock.patch.dict(sys.modules, {"ray": None}):  # a run would need Ray: none starts
+            with self.assertRaises(error) as ctx:
+                (function or mjstepper.sweep)(arguments.pop("model", self.MODEL), **arguments)
+        for word in words:
+            self.assertIn(word, str(ctx.exception))
+
+    def test_every_numeric_argument_names_itself_and_its_range(self):
+        missing = "/no/such/model.xml"  # checked before the model is read
+        self.assertRejects(ValueError, ["settle = -1", "[0, 60] s"], settle=-1, model=missing)
+        self.assertRejects(ValueError, ["settle = nan", "[0, 60] s"], settle=math.nan)
+        self.assertRejects(ValueError, ["measure = 0.0 s", "[0.01, 60] s"], measure=0, model=missing)
+        self.assertRejects(ValueError, ["measure = 61", "[0.01, 60] s"], measure=61)
+        self.assertRejects(TypeError, ["measure = '0.5'"], measure="0.5")
+        self.assertRejects(ValueError, ["acceleration = 0", "> 0"], acceleration=0)
+        self.assertRejects(ValueError, ["speeds = []", "at least one"], speeds=[], model=missing)
+        self.assertRejects(ValueError, ["speeds[1] = 20000", "0 < |speed| <= 10000 rad/s"],
+                           speeds=[5.0, 2e4])
+        self.assertRejects(ValueError, ["speeds[0] = 0.0 rad/s"], speeds=np.zeros(3))
+        self.assertRejects(ValueError, ["speeds[0] = inf"], speeds=[math.inf])
+        self.assertRejects(ValueError, ["100001 speeds", "at most 100000"],
+                           speeds=np.ones(100_001))
+        self.assertRejects(TypeError, ["speeds[0] = True"], speeds=[True])
+        self.assertRejects(TypeError, ["speeds = 5.0"], speeds=5.0)
+        self.assertEqual((mjstepper._sweep.SETTLE_RANGE, mjstepper._sweep.MEASURE_RANGE,
+                          mjstepper._sweep.MAX_SPEED, mjstepper._sweep.MAX_SPEEDS),
+                         ((0, 60), (0.01, 60), 1e4, 100_000))
+
+    def test_map_values_name_the_parameters_range(self):
+        resonance_map = mjstepper.resonance_map
+        stiffness = {"function": resonance_map, "model": self.COUPLING,
+                     "parameter": "stiffness:coupling"}
+        mass = {"function": resonance_map, "model": self.COUPLING, "parameter": "mass:load"}
+        self.assertRejects(ValueError, ["values[0] = -100.0 N·m/rad", "0 < value <= 1e+12 N·m/rad or N/m"],
+                           values=[-100], **stiffness)
+        self.assertRejects(ValueError, ["values[1] = 2000000000000.0"], values=[20, 2e12], **stiffness)
+        self.assertRejects(ValueError, ["values = []", "at least one"], values=[], **stiffness)
+        self.assertRejects(ValueError, ["values[0] = 0.0 kg", "0 < value <= 1e+06 kg"], values=[0],
+                           **mass)
+        self.assertRejects(ValueError, ["values[0] = nan", "kg"], values=[math.nan], **mass)
+        self.assertRejects(ValueError, ["values[0] = 2000000.0", "kg"], values=[2e6], **mass)
+        self.assertRejects(ValueError, ["parameter = 'damping:coupling'"], values=[1],
+                           function=resonance_map, parameter="damping:coupling")
+        self.assertRejects(ValueError, ["no joint named 'nothing'"], values=[1],
+                           function=resonance_map, model=self.COUPLING,
+                           parameter="stiffness:nothing")
+
+    def test_measure_holds_at_least_100_timesteps(self):
+        with open(self.MODEL) as f:
+            coarse = f.read().replace('timestep="5e-5"', 'timestep="2e-4"')
+        path = os.path.join(os.getcwd(), "tsui_coarse.xml")
+        with open(path, "w") as f:
+            f.write(coarse)
+        self.assertRejects(ValueError, ["measure = 0.01 s", "50 timesteps", "at least 100",
+                                        "measure >= 0.02 s"], model=path, measure=0.01)
+        self.assertRejects(ModuleNotFoundError, ["mjstepper[ray]"], model=path, measure=0.02)
+
+    def test_the_stepper_is_checked_on_the_driver(self):
+        self.assertRejects(KeyError, ["no actuator named 'nothing'"], actuator="nothing")
+        self.assertRejects(IndexError, ["no actuator 3"], actuator=3)
+
+    def test_without_ray_says_how_to_install_it(self):
+        self.assertRejects(ModuleNotFoundError, ['pip install "mjstepper[ray]"', "mjstepper.sweep"],
+                           measure=0.01)
+        self.assertRejects(ModuleNotFoundError, ['pip install "mjstepper[ray]"',
+                                                 "mjstepper.resonance_map"],
+                           function=mjstepper.resonance_map, model=os.path.join(
+                               SOURCE, "models", "tsui_coupling.xml"),
+                           parameter="mass:load", values=[0.5])
 
 
 if __name__ == "__main__":
