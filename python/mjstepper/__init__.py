@@ -10,9 +10,14 @@ was built against), after which MJCF models may use `mjstepper.stepper` actuator
     mujoco.mj_step(model, data)
     mjstepper.signals(model, data, "shaft")["current_a"]   # (value, "A")
 """
+import difflib
+import functools
+import numbers
+import operator
 import os
 
 import mujoco
+import numpy as np
 
 from . import _tables
 
@@ -32,15 +37,69 @@ UNITS = {name: unit for name, unit, _ in _tables.SIGNALS}
 MEANINGS = {name: meaning for name, _, meaning in _tables.SIGNALS}
 #: Every preset's parameters as {name: (value, unit)}.
 PRESETS = _tables.PRESETS
+#: Plugin attribute names (MJCF <config key=...>), in the plugin's order, and their units (from
+#: the C++ attribute table).
+ATTRIBUTES = tuple(name for name, _, _, _, _ in _tables.ATTRIBUTES)
+ATTRIBUTE_UNITS = {name: unit for name, _, _, unit, _ in _tables.ATTRIBUTES}
+_ATTRIBUTE_TYPES = {name: kind for name, kind, _, _, _ in _tables.ATTRIBUTES}
+
+
+@functools.cache
+def _stepper_slot():
+    """The plugin slot MuJoCo gave mjstepper.stepper in this process (mjModel.plugin's values),
+    from the smallest model with a stepper (no rotor inertia, so none needed in the model)."""
+    model = mujoco.MjModel.from_xml_string(
+        f'<mujoco><extension><plugin plugin="{PLUGIN_NAME}"/></extension>'
+        '<worldbody><body><joint name="j"/><geom size="0.1"/></body></worldbody>'
+        f'<actuator><plugin joint="j" plugin="{PLUGIN_NAME}">'
+        '<config key="rotor_inertia" value="0"/></plugin></actuator></mujoco>')
+    return int(model.plugin[0])
+
+
+def _actuator_id(model, actuator):
+    """The id of `actuator` (a name, or an id: any integer but a bool) in a compiled model."""
+    if isinstance(actuator, str):
+        actuator_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, actuator)
+        if actuator_id < 0:
+            raise KeyError(f"no actuator named {actuator!r}")
+        return actuator_id
+    if isinstance(actuator, (bool, np.bool_)):
+        raise TypeError(f"actuator must be a name (str) or an id (int), not a bool ({actuator!r})")
+    try:
+        actuator_id = operator.index(actuator)
+    except TypeError:
+        raise TypeError(f"actuator must be a name (str) or an id (int), not "
+                        f"{type(actuator).__name__} ({actuator!r})") from None
+    if not 0 <= actuator_id < model.nu:
+        raise IndexError(f"no actuator {actuator_id}: actuator ids are in [0, model.nu) = "
+                         f"[0, {model.nu})")
+    return actuator_id
+
+
+def _is_stepper(model, actuator_id):
+    instance = model.actuator_plugin[actuator_id]
+    return instance >= 0 and model.plugin[instance] == _stepper_slot()
+
+
+def _stepper_id(model, actuator):
+    """The id of the stepper `actuator` (a name, or an id: any integer but a bool, in
+    [0, model.nu)): TypeError, KeyError, IndexError, or ValueError for an actuator that is not a
+    stepper."""
+    actuator_id = _actuator_id(model, actuator)
+    if not _is_stepper(model, actuator_id):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, actuator_id)
+        why = ("it has no plugin" if model.actuator_plugin[actuator_id] < 0
+               else f"its plugin is not {PLUGIN_NAME}")
+        raise ValueError(f"actuator {name!r} (id {actuator_id}) is not an mjstepper stepper: {why}")
+    return actuator_id
 
 
 def signals(model, data, actuator):
-    """{name: (value, unit)} of the stepper on `actuator` (name or id), from its signal sensor
-    (mjstepper.add_signal_sensors adds one to every stepper)."""
-    actuator_id = actuator if isinstance(actuator, int) else mujoco.mj_name2id(
-        model, mujoco.mjtObj.mjOBJ_ACTUATOR, actuator)
-    if actuator_id < 0:
-        raise KeyError(f"no actuator named {actuator!r}")
+    """{name: (value, unit)} of the stepper on `actuator` (its name, or its id: any integer in
+    [0, model.nu)), from its signal sensor (mjstepper.add_signal_sensors adds one to every
+    stepper). Raises TypeError for another kind of `actuator`, KeyError for an unknown name,
+    IndexError for an id out of range, ValueError for an actuator that is not a stepper."""
+    actuator_id = _stepper_id(model, actuator)
     for s in range(model.nsensor):
         if (model.sensor_type[s] == mujoco.mjtSensor.mjSENS_PLUGIN
                 and model.sensor_objtype[s] == mujoco.mjtObj.mjOBJ_ACTUATOR
@@ -52,17 +111,51 @@ def signals(model, data, actuator):
                    "call mjstepper.add_signal_sensors(spec) before compiling")
 
 
+# What each type of attribute takes besides a str, and how it is written.
+_ATTRIBUTE_VALUES = {
+    "real": ((numbers.Real,), "a str or a number", str),
+    "integer": ((numbers.Integral,), "a str or an integer", str),
+    "name": ((bool, np.bool_), "a str or a bool (on/off)", lambda v: "on" if v else "off"),
+    "list": ((), "a str", str),
+}
+
+
+def _attribute_text(name, value):
+    """The config text of one attribute value; ValueError for an unknown attribute, TypeError for
+    a value its type does not take."""
+    if name not in _ATTRIBUTE_TYPES:
+        close = difflib.get_close_matches(name, ATTRIBUTES, n=3)
+        hint = (f"did you mean {' or '.join(close)}?" if close
+                else f"known attributes: {', '.join(ATTRIBUTES)}")
+        raise ValueError(f"unknown mjstepper attribute {name!r}: {hint}")
+    kind = _ATTRIBUTE_TYPES[name]
+    types, expected, text = _ATTRIBUTE_VALUES[kind]
+    if isinstance(value, str):
+        return value
+    is_bool = isinstance(value, (bool, np.bool_))
+    if isinstance(value, types) and (kind == "name" or not is_bool):
+        return text(value)
+    raise TypeError(f"{name} = {value!r} ({type(value).__name__}): {name} ({kind}) takes "
+                    f"{expected}")
+
+
 def configure(spec, actuator, **attributes):
     """Sets plugin attributes (plugin/README.md) of the stepper on `actuator` in an MjSpec, through
     the spec's own plugin config, e.g. configure(spec, "shaft", drive="servo", hold_current=1.5).
-    An actuator on a named instance changes the instance (and every actuator sharing it)."""
+    An actuator on a named instance changes the instance (and every actuator sharing it).
+
+    Every name must be one of ATTRIBUTES (ValueError, suggesting the closest, if not); every
+    value a str, or a number for a real or integer attribute, or a bool (on/off) for a
+    name-valued one (TypeError if not). The values themselves are checked when the spec compiles.
+    Nothing is changed when any attribute is rejected."""
+    texts = {k: _attribute_text(k, v) for k, v in attributes.items()}
     a = next((x for x in spec.actuators if x.name == actuator), None)
     if a is None or not a.plugin.active:
         raise KeyError(f"no mjstepper actuator named {actuator!r}")
     target = a.plugin
     if not a.plugin.plugin_name:  # on a named instance
         target = next(p for p in spec.plugins if p.name == a.plugin.name)
-    target.config = {**target.config, **{k: str(v) for k, v in attributes.items()}}
+    target.config = {**target.config, **texts}
 
 
 def add_signal_sensors(spec):

@@ -1,10 +1,12 @@
 // Writes the Python package's tables (python/mjstepper reads them as mjstepper/_tables.py) from
-// the one signal table (core/signals.cc) and the presets (core/presets.cc), at build time:
+// the one signal table (core/signals.cc), the attribute table (plugin/config.cc AttributeTable)
+// and the presets (core/presets.cc), at build time:
 //   mjstepper_package_tables MUJOCO_VERSION > _tables.py
 #include <fmt/format.h>
 
 #include <string>
 
+#include "config.h"
 #include "core/presets.h"
 #include "core/signals.h"
 
@@ -14,6 +16,10 @@ namespace {
 std::string Quote(const std::string& text) {
   std::string out = "\"";
   for (char c : text) {
+    if (c == '\n') {
+      out += "\\n";
+      continue;
+    }
     if (c == '"' || c == '\\') out += '\\';
     out += c;
   }
@@ -34,6 +40,14 @@ int main(int argc, char** argv) {
   fmt::print("SIGNALS = (\n");
   for (const mjstepper::SignalInfo& s : mjstepper::SignalTable()) {
     fmt::print("    ({}, {}, {}),\n", Quote(s.name), Quote(s.unit), Quote(s.meaning));
+  }
+  fmt::print(")\n\n");
+  fmt::print("# (name, type, default, unit, meaning) of each plugin attribute (MJCF <config>),\n");
+  fmt::print("# in the plugin's order; type is real, integer, name or list.\n");
+  fmt::print("ATTRIBUTES = (\n");
+  for (const mjstepper::AttributeSpec* a : mjstepper::plugin::AttributeTable()) {
+    fmt::print("    ({}, {}, {}, {}, {}),\n", Quote(a->name), Quote(a->type),
+               Quote(a->default_text), Quote(a->unit), Quote(a->meaning));
   }
   fmt::print(")\n\n");
   fmt::print("# Each preset's parameters as (value, unit).\n");

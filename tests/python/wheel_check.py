@@ -1,12 +1,15 @@
 """Run inside a fresh virtual environment where only the mjstepper wheel (and what it requires) is
-installed: import, signals by name, presets, the library's run-time needs, the version check."""
+installed: import, signals by name, presets, the library's run-time needs, the version check, the
+checks of every argument (issue 16), and the Ray sweep and map against the C++ ones."""
 import math
 import os
 import subprocess
 import sys
 import unittest
+from unittest import mock
 
 import mujoco
+import numpy as np
 
 import mjstepper
 
@@ -125,6 +128,158 @@ class RaySweep(unittest.TestCase):
         for row, expected in zip(rows, cpp[1:]):
             for got, want in zip(row, expected):
                 self.assertLessEqual(abs(got - float(want)), 1e-12 * max(1.0, abs(float(want))))
+
+
+class HostileArguments(unittest.TestCase):
+    """Issue 16: every argument of the package's functions is checked where it is given, and the
+    error names it (and its range), instead of failing later or elsewhere."""
+
+    def compiled(self, plain=False):
+        spec = mujoco.MjSpec.from_file(os.path.join(SOURCE, "models", "tsui_rigid.xml"))
+        mjstepper.add_signal_sensors(spec)
+        if plain:  # a second actuator, not a stepper
+            spec.add_actuator(name="plain", target="shaft", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        return model, data
+
+    def test_signals_takes_any_integer_id_but_a_bool(self):
+        model, data = self.compiled()
+        by_name = mjstepper.signals(model, data, "shaft")
+        for actuator in (0, np.int64(0), np.int32(0), np.uint8(0)):
+            self.assertEqual(mjstepper.signals(model, data, actuator), by_name, repr(actuator))
+        for actuator in (True, np.bool_(False), 0.0, None, b"shaft"):
+            with self.assertRaises(TypeError) as ctx:
+                mjstepper.signals(model, data, actuator)
+            self.assertIn("actuator", str(ctx.exception))
+
+    def test_signals_names_an_id_out_of_range_and_a_non_stepper(self):
+        model, data = self.compiled(plain=True)
+        for actuator in (99, np.int64(2), -1):
+            with self.assertRaises(IndexError) as ctx:
+                mjstepper.signals(model, data, actuator)
+            message = str(ctx.exception)
+            self.assertIn(f"no actuator {int(actuator)}", message)
+            self.assertIn("[0, model.nu) = [0, 2)", message)
+            self.assertNotIn("sensor", message)
+        for actuator in ("plain", 1):
+            with self.assertRaises(ValueError) as ctx:
+                mjstepper.signals(model, data, actuator)
+            self.assertIn("'plain' (id 1) is not an mjstepper stepper", str(ctx.exception))
+        self.assertEqual(tuple(mjstepper.signals(model, data, 0)), mjstepper.SIGNALS)
+
+    def test_configure_rejects_an_unknown_attribute_at_once(self):
+        spec = mujoco.MjSpec.from_file(os.path.join(SOURCE, "models", "tsui_rigid.xml"))
+        before = dict(spec.actuators[0].plugin.config)
+        with self.assertRaises(ValueError) as ctx:
+            mjstepper.configure(spec, "shaft", hold_current=1.5, hold_curent=1)
+        self.assertIn("'hold_curent'", str(ctx.exception))
+        self.assertIn("did you mean hold_current", str(ctx.exception))
+        self.assertEqual(dict(spec.actuators[0].plugin.config), before)  # nothing set
+        for attribute, value in (("hold_current", None), ("hold_current", True),
+                                 ("microsteps", 2.5), ("detent", [])):
+            with self.assertRaises(TypeError) as ctx:
+                mjstepper.configure(spec, "shaft", **{attribute: value})
+            self.assertIn(f"{attribute} = {value!r}", str(ctx.exception))
+        self.assertEqual(dict(spec.actuators[0].plugin.config), before)
+        mjstepper.configure(spec, "shaft", hold_current=np.float64(1.5), microsteps=np.int64(16),
+                            gauge=False, detent="none")
+        self.assertEqual({k: v for k, v in spec.actuators[0].plugin.config.items()
+                          if k not in before},
+                         {"hold_current": "1.5", "microsteps": "16", "gauge": "off",
+                          "detent": "none"})
+        spec.compile()
+
+    def test_attribute_names_are_the_plugins_table(self):
+        """mjstepper.ATTRIBUTES (generated from the C++ table) lists plugin/README.md's table,
+        which is generated from the same table (and checked by a C++ test)."""
+        with open(os.path.join(SOURCE, "plugin", "README.md"), encoding="utf-8") as f:
+            lines = f.read().split("| Attribute | Type |", 1)[1].splitlines()[2:]
+        documented = []
+        for line in lines:
+            if not line.startswith("| `"):
+                break
+            documented.append(line.split("`")[1])
+        self.assertEqual(mjstepper.ATTRIBUTES, tuple(documented))
+        self.assertEqual(mjstepper.ATTRIBUTE_UNITS["hold_current"], "A")
+
+
+class SweepArguments(unittest.TestCase):
+    """sweep and resonance_map check every argument before any work, without Ray; no run starts."""
+    MODEL = os.path.join(SOURCE, "models", "tsui_rigid.xml")
+    COUPLING = os.path.join(SOURCE, "models", "tsui_coupling.xml")
+
+    def assertRejects(self, error, words, function=None, **arguments):
+        arguments.setdefault("speeds", [5.0])
+        with mock.patch.dict(sys.modules, {"ray": None}):  # a run would need Ray: none starts
+            with self.assertRaises(error) as ctx:
+                (function or mjstepper.sweep)(arguments.pop("model", self.MODEL), **arguments)
+        for word in words:
+            self.assertIn(word, str(ctx.exception))
+
+    def test_every_numeric_argument_names_itself_and_its_range(self):
+        missing = "/no/such/model.xml"  # checked before the model is read
+        self.assertRejects(ValueError, ["settle = -1", "[0, 60] s"], settle=-1, model=missing)
+        self.assertRejects(ValueError, ["settle = nan", "[0, 60] s"], settle=math.nan)
+        self.assertRejects(ValueError, ["measure = 0.0 s", "[0.01, 60] s"], measure=0, model=missing)
+        self.assertRejects(ValueError, ["measure = 61", "[0.01, 60] s"], measure=61)
+        self.assertRejects(TypeError, ["measure = '0.5'"], measure="0.5")
+        self.assertRejects(ValueError, ["acceleration = 0", "> 0"], acceleration=0)
+        self.assertRejects(ValueError, ["speeds = []", "at least one"], speeds=[], model=missing)
+        self.assertRejects(ValueError, ["speeds[1] = 20000", "0 < |speed| <= 10000 rad/s"],
+                           speeds=[5.0, 2e4])
+        self.assertRejects(ValueError, ["speeds[0] = 0.0 rad/s"], speeds=np.zeros(3))
+        self.assertRejects(ValueError, ["speeds[0] = inf"], speeds=[math.inf])
+        self.assertRejects(ValueError, ["100001 speeds", "at most 100000"],
+                           speeds=np.ones(100_001))
+        self.assertRejects(TypeError, ["speeds[0] = True"], speeds=[True])
+        self.assertRejects(TypeError, ["speeds = 5.0"], speeds=5.0)
+        self.assertEqual((mjstepper._sweep.SETTLE_RANGE, mjstepper._sweep.MEASURE_RANGE,
+                          mjstepper._sweep.MAX_SPEED, mjstepper._sweep.MAX_SPEEDS),
+                         ((0, 60), (0.01, 60), 1e4, 100_000))
+
+    def test_map_values_name_the_parameters_range(self):
+        resonance_map = mjstepper.resonance_map
+        stiffness = {"function": resonance_map, "model": self.COUPLING,
+                     "parameter": "stiffness:coupling"}
+        mass = {"function": resonance_map, "model": self.COUPLING, "parameter": "mass:load"}
+        self.assertRejects(ValueError, ["values[0] = -100.0 N·m/rad", "0 < value <= 1e+12 N·m/rad or N/m"],
+                           values=[-100], **stiffness)
+        self.assertRejects(ValueError, ["values[1] = 2000000000000.0"], values=[20, 2e12], **stiffness)
+        self.assertRejects(ValueError, ["values = []", "at least one"], values=[], **stiffness)
+        self.assertRejects(ValueError, ["values[0] = 0.0 kg", "0 < value <= 1e+06 kg"], values=[0],
+                           **mass)
+        self.assertRejects(ValueError, ["values[0] = nan", "kg"], values=[math.nan], **mass)
+        self.assertRejects(ValueError, ["values[0] = 2000000.0", "kg"], values=[2e6], **mass)
+        self.assertRejects(ValueError, ["parameter = 'damping:coupling'"], values=[1],
+                           function=resonance_map, parameter="damping:coupling")
+        self.assertRejects(ValueError, ["no joint named 'nothing'"], values=[1],
+                           function=resonance_map, model=self.COUPLING,
+                           parameter="stiffness:nothing")
+
+    def test_measure_holds_at_least_100_timesteps(self):
+        with open(self.MODEL) as f:
+            coarse = f.read().replace('timestep="5e-5"', 'timestep="2e-4"')
+        path = os.path.join(os.getcwd(), "tsui_coarse.xml")
+        with open(path, "w") as f:
+            f.write(coarse)
+        self.assertRejects(ValueError, ["measure = 0.01 s", "50 timesteps", "at least 100",
+                                        "measure >= 0.02 s"], model=path, measure=0.01)
+        self.assertRejects(ModuleNotFoundError, ["mjstepper[ray]"], model=path, measure=0.02)
+
+    def test_the_stepper_is_checked_on_the_driver(self):
+        self.assertRejects(KeyError, ["no actuator named 'nothing'"], actuator="nothing")
+        self.assertRejects(IndexError, ["no actuator 3"], actuator=3)
+
+    def test_without_ray_says_how_to_install_it(self):
+        self.assertRejects(ModuleNotFoundError, ['pip install "mjstepper[ray]"', "mjstepper.sweep"],
+                           measure=0.01)
+        self.assertRejects(ModuleNotFoundError, ['pip install "mjstepper[ray]"',
+                                                 "mjstepper.resonance_map"],
+                           function=mjstepper.resonance_map, model=os.path.join(
+                               SOURCE, "models", "tsui_coupling.xml"),
+                           parameter="mass:load", values=[0.5])
 
 
 if __name__ == "__main__":
