@@ -16,18 +16,21 @@ import time
 import mujoco
 import numpy as np
 
-from . import _is_stepper, _stepper_id, add_signal_sensors, SIGNALS
+from . import _is_stepper, _stepper_id, _tables, add_signal_sensors, SIGNALS
 
-# The bounds of every numeric argument, the C++ CLI's (`mjstepper sweep` and `map`): each is checked
-# before any work, and a value outside them raises ValueError naming the argument, the value and
-# the range.
-SETTLE_RANGE = (0.0, 60.0)  # s, closed
-MEASURE_RANGE = (0.01, 60.0)  # s, closed
-MIN_MEASURED_STEPS = 100  # timesteps in `measure` (checked once the model is loaded)
-MAX_SPEED = 1e4  # rad/s: every speed finite with 0 < |speed| <= MAX_SPEED
-MAX_SPEEDS = 100_000  # speeds in one call (at least one)
+# The bounds of every numeric argument: the C++ command's (`mjstepper sweep` and `map`), from its one
+# range table (src/tools/options.cc, generated into _tables.py). Each is checked before any work,
+# and a value outside them raises ValueError naming the argument, the value and the range.
+_RANGES = _tables.OPTION_RANGES
+SETTLE_RANGE = _RANGES["settle"][:2]  # s, closed
+MEASURE_RANGE = _RANGES["measure"][:2]  # s, closed
+MIN_MEASURED_STEPS = _tables.MIN_MEASURED_STEPS  # timesteps in `measure` (checked on the model)
+# rad/s: every speed finite with 0 < |speed| <= MAX_SPEED (the command's bound; a speed of 0, which
+# the command takes, would make this module's ramp of length 0 divide by zero)
+MAX_SPEED = _RANGES["speed"][1]
+MAX_SPEEDS = int(_RANGES["speeds"][1])  # speeds (times values, for a map) in one call
 # A map's load parameter: its values (at least one) each finite, > 0 and <= its bound, in its unit.
-PARAMETER_BOUNDS = {"stiffness": (1e12, "N·m/rad or N/m"), "mass": (1e6, "kg")}
+PARAMETER_BOUNDS = {kind: (_RANGES[kind][1], _RANGES[kind][2]) for kind in ("stiffness", "mass")}
 
 HEADER = ("speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
           "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]",
@@ -195,6 +198,9 @@ def _check_arguments(speeds, settle, measure, acceleration, parameter=None, valu
                 raise ValueError(f"values[{i}] = {v!r} {unit}: every {kind} value must be "
                                  f"finite with 0 < value <= {high:g} {unit}")
             values[i] = v
+        if len(speeds) * len(values) > MAX_SPEEDS:
+            raise ValueError(f"speeds × values = {len(speeds)} × {len(values)} runs; at most "
+                             f"{MAX_SPEEDS} in one call")
     return speeds, settle, measure, acceleration, values
 
 

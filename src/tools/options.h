@@ -33,6 +33,9 @@ void RequireInRange(const std::string& option, const OptionRange& range, double 
 /// holds (more is a typing error, or hours of work nobody asked for).
 inline constexpr double kMaxFrames = 1e6;
 inline constexpr double kMaxRuns = 1e5;
+/// The fewest timesteps a sweep's measured window holds: fewer would make a ripple and a frequency
+/// out of a handful of samples.
+inline constexpr int kMinMeasuredSteps = 100;
 
 /// "10:200:2.5rpm" (from:to:step, inclusive), "50,100,150rpm", or one speed; units rpm, r/min,
 /// rad/s. Every speed within Range("speed") and at most kMaxRuns of them. Throws

@@ -9,6 +9,7 @@
 #include "config.h"
 #include "core/presets.h"
 #include "core/signals.h"
+#include "options.h"
 
 namespace {
 
@@ -50,6 +51,14 @@ int main(int argc, char** argv) {
                Quote(a->default_text), Quote(a->unit), Quote(a->meaning));
   }
   fmt::print(")\n\n");
+  fmt::print("# (least, most, unit) of each bounded option of the mjstepper command\n");
+  fmt::print("# (src/tools/options.cc); the Python package's arguments share them.\n");
+  fmt::print("OPTION_RANGES = {{\n");
+  for (const mjstepper::tools::OptionRange& r : mjstepper::tools::OptionRanges()) {
+    fmt::print("    {}: ({:.17g}, {:.17g}, {}),\n", Quote(r.name), r.lo, r.hi, Quote(r.unit));
+  }
+  fmt::print("}}\n");
+  fmt::print("MIN_MEASURED_STEPS = {}\n\n", mjstepper::tools::kMinMeasuredSteps);
   fmt::print("# Each preset's parameters as (value, unit).\n");
   fmt::print("PRESETS = {{\n");
   for (const std::string& name : mjstepper::PresetNames()) {

@@ -209,8 +209,8 @@ void CheckSpeeds(const std::vector<double>& speeds, double runs) {
   for (double speed : speeds) RequireInRange("--speeds", Range("speed"), speed);
 }
 
-// A sweep's timing within its bounds, and a measured window of at least 100 of the model's steps:
-// fewer would make a ripple and a frequency out of a handful of samples.
+// A sweep's timing within its bounds, and a measured window of at least kMinMeasuredSteps of the
+// model's steps.
 void CheckSweepTiming(const SweepOptions& o, const mjModel* m) {
   RequireInRange("--settle", Range("settle"), o.settle);
   RequireInRange("--measure", Range("measure"), o.measure);
@@ -218,10 +218,10 @@ void CheckSweepTiming(const SweepOptions& o, const mjModel* m) {
     throw std::invalid_argument(
         fmt::format("sweep: acceleration = {} rad/s²: must be finite and > 0", o.acceleration));
   }
-  if (!(o.measure >= 100 * m->opt.timestep)) {
+  if (!(o.measure >= kMinMeasuredSteps * m->opt.timestep)) {
     throw std::invalid_argument(fmt::format(
-        "--measure {:g}: must hold at least 100 timesteps of the model ({:g} s)", o.measure,
-        100 * m->opt.timestep));
+        "--measure {:g}: must hold at least {} timesteps of the model ({:g} s)", o.measure,
+        kMinMeasuredSteps, kMinMeasuredSteps * m->opt.timestep));
   }
 }
 
