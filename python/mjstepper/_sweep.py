@@ -10,7 +10,9 @@ import csv
 import math
 import numbers
 import os
+import stat
 import sys
+import tempfile
 import time
 
 import mujoco
@@ -263,14 +265,46 @@ def _run_grid(ray, xml, runs, actuator, settle, measure, acceleration, address, 
     return rows
 
 
+def _check_output(out):
+    """`out` must be a regular file or nothing (never a device, FIFO, directory or symbolic link,
+    which the CSV would replace): OSError naming it if not. Checked before any run, and again just
+    before the rename."""
+    if out is None:
+        return
+    if not isinstance(out, (str, os.PathLike)) or not os.fspath(out):
+        raise TypeError(f"out = {out!r}: expected a file path")
+    try:
+        mode = os.lstat(out).st_mode
+    except FileNotFoundError:
+        return
+    if not stat.S_ISREG(mode):
+        raise IsADirectoryError(f"out = {os.fspath(out)!r}: not a regular file; an output replaces "
+                                "only a regular file or nothing") if stat.S_ISDIR(mode) else \
+            FileExistsError(f"out = {os.fspath(out)!r}: not a regular file (a device, FIFO, socket "
+                            "or symbolic link); an output replaces only a regular file or nothing")
+
+
 def _write_csv(out, header, rows):
-    """Every digit, written to out.tmp and renamed when complete."""
-    tmp = out + ".tmp"
-    with open(tmp, "w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(header)
-        writer.writerows([repr(float(v)) for v in row] for row in rows)
-    os.replace(tmp, out)
+    """Every digit, written to a new temporary beside `out` (created exclusively, as the C++
+    command's, src/tools/output_file.h) and renamed over it when complete."""
+    out = os.fspath(out)
+    _check_output(out)
+    folder, name = os.path.split(os.path.abspath(out))
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name[:200]}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", newline="") as f:
+            writer = csv.writer(f)
+            writer.writerow(header)
+            writer.writerows([repr(float(v)) for v in row] for row in rows)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        _check_output(out)
+        os.replace(tmp, out)
+    except BaseException:
+        if os.path.lexists(tmp):
+            os.remove(tmp)
+        raise
 
 
 def sweep(model, speeds, actuator=None, settle=0.4, measure=0.5, acceleration=209.44,
@@ -293,6 +327,7 @@ def sweep(model, speeds, actuator=None, settle=0.4, measure=0.5, acceleration=20
     """
     speeds, settle, measure, acceleration, _ = _check_arguments(speeds, settle, measure,
                                                                 acceleration)
+    _check_output(out)
     xml, actuator = _load(model, actuator, measure, None)
     ray = _import_ray("sweep")
     rows = _run_grid(ray, xml, [(s, None, None) for s in speeds], actuator, settle, measure,
@@ -316,6 +351,7 @@ def resonance_map(model, speeds, parameter, values, actuator=None, settle=0.4, m
     """
     speeds, settle, measure, acceleration, values = _check_arguments(
         speeds, settle, measure, acceleration, parameter, values)
+    _check_output(out)
     xml, actuator = _load(model, actuator, measure, parameter)
     ray = _import_ray("resonance_map")
     runs = [(s, parameter, v) for v in values for s in speeds]

@@ -3,8 +3,10 @@ installed: import, signals by name, presets, the library's run-time needs, the v
 checks of every argument (issue 16), and the Ray sweep and map against the C++ ones."""
 import math
 import os
+import stat
 import subprocess
 import sys
+import tempfile
 import unittest
 from unittest import mock
 
@@ -267,6 +269,26 @@ class SweepArguments(unittest.TestCase):
         self.assertRejects(ValueError, ["measure = 0.01 s", "50 timesteps", "at least 100",
                                         "measure >= 0.02 s"], model=path, measure=0.01)
         self.assertRejects(ModuleNotFoundError, ["mjstepper[ray]"], model=path, measure=0.02)
+
+    def test_out_replaces_only_a_regular_file(self):
+        # A symbolic link, a FIFO or a directory as `out` is refused before any run (a CSV would
+        # have replaced it), and left as it was; a regular file is written whole, nothing beside it.
+        folder = tempfile.mkdtemp()
+        target = os.path.join(folder, "target.csv")
+        with open(target, "w") as f:
+            f.write("precious\n")
+        link, fifo = os.path.join(folder, "link.csv"), os.path.join(folder, "fifo.csv")
+        os.symlink(target, link)
+        os.mkfifo(fifo)
+        for out in (link, fifo, folder):
+            self.assertRejects(OSError, [repr(out), "not a regular file"], out=out)
+        self.assertTrue(os.path.islink(link) and stat.S_ISFIFO(os.lstat(fifo).st_mode))
+        with open(target) as f:
+            self.assertEqual(f.read(), "precious\n")
+        mjstepper._sweep._write_csv(target, ("a", "b"), [(1, 2)])
+        with open(target) as f:
+            self.assertEqual(f.read().splitlines(), ["a,b", "1.0,2.0"])
+        self.assertEqual(sorted(os.listdir(folder)), ["fifo.csv", "link.csv", "target.csv"])
 
     def test_the_stepper_is_checked_on_the_driver(self):
         self.assertRejects(KeyError, ["no actuator named 'nothing'"], actuator="nothing")
