@@ -63,6 +63,11 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     // qpos, qvel, act, ctrl and time from the keyframe; the drives then start at rest on their
     // rotors there (plugin state is not in keyframes: SPEC §6).
     mj_resetDataKeyframe(m, d, key);
+    if (!std::isfinite(d->time) || std::abs(d->time) > 1e9) {  // s; 1e9: three decades of time
+      throw std::invalid_argument(fmt::format(
+          "--keyframe {}: its time is {:g} s; a run starts at a finite time within ±1e9 s",
+          options.keyframe, d->time));
+    }
   }
   mj_forward(m, d);
 

@@ -342,6 +342,15 @@ TEST(Security, BoundsThatNeedTheModelFailBeforeAnyStep) {
   EXPECT_THAT(r.output, HasSubstr("--measure 0.01: must hold at least 100 timesteps of the model "
                                   "(0.02 s)"));
   EXPECT_TRUE(Entries(dir).empty());
+  // A keyframe whose time is NaN (MuJoCo reads time="nan") hung mj_step; the runner refuses it.
+  std::string nan_key = text.str();
+  nan_key.replace(nan_key.rfind("</mujoco>"), 9,
+                  "<keyframe><key name=\"nan\" time=\"nan\" qpos=\"0\"/></keyframe></mujoco>");
+  const fs::path nan_model = dir.parent_path() / "nan_keyframe.xml";
+  std::ofstream(nan_model) << nan_key;
+  r = Cli({"run", nan_model.string(), "--duration", "0.01", "--quiet", "--keyframe", "nan"});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_THAT(r.output, HasSubstr("--keyframe nan: its time is nan s"));
   // identify --orders 4 4 fitted harmonic 4 twice (and --orders 0 printed a damping_detent the
   // plugin refuses: the parser's bound, above).
   r = Cli({"identify", MJSTEPPER_SOURCE_DIR "/models/tsui_identify.xml", "--orders", "4", "4"});
