@@ -266,32 +266,57 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
   }
 }
 
+bool Stepper::WarnOnce(unsigned cause, const std::string& message) const {
+  const unsigned bit = 1u << cause;
+  if (warned_.fetch_or(bit) & bit) return false;
+  mju_warning("%s", message.c_str());
+  return true;
+}
+
 void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
   if (!drive_) return;
+  const double timestep = m->opt.timestep;  // s
   const double t1 = d->time;  // s, the step's end: MuJoCo advances time before plugins
-  const double t0 = t1 - m->opt.timestep;
-  if (!InterruptsFit(m->opt.timestep, drive_->config().isr_period) &&
-      !warned_timestep_.exchange(true)) {
-    // Raised after loading (which refuses it): every interrupt still runs, so say what it costs.
-    mju_warning("%s", fmt::format("mjstepper: timestep {:g} s runs {:.0f} interrupts per step, "
-                                  "more than the {} a load allows; use isr_period >= {:g} (s) or "
-                                  "a smaller timestep",
-                                  m->opt.timestep, m->opt.timestep / drive_->config().isr_period,
-                                  kMaxInterruptsPerStep, LeastIsrPeriod(m->opt.timestep))
-                          .c_str());
+  auto actuator_name = [m](const Actuator& a) {
+    return fmt::format("actuator '{}' (id {})", NameOf(m, m->name_actuatoradr[a.id]), a.id);
+  };
+  if (!(timestep > 0 && std::isfinite(timestep))) {
+    // Set after loading (the compiler refuses it): the drives are held as they are.
+    WarnOnce(kCauseBadTimestep,
+             fmt::format("mjstepper: {} at time {:g} s: timestep = {:g} s is not a positive finite "
+                         "number; the drive is held unchanged",
+                         actuator_name(actuators_.front()), t1, timestep));
+    return;
+  }
+  const double t0 = t1 - timestep;
+  if (!InterruptsFit(timestep, drive_->config().isr_period)) {
+    // Raised after loading (which refuses it): every interrupt still runs (up to the drive's
+    // kMaxTicksPerAdvance), so say what it costs.
+    WarnOnce(
+        kCauseManyInterrupts,
+        fmt::format("mjstepper: timestep {:g} s runs {:.0f} interrupts per step, more than the "
+                    "{} a load allows; use isr_period >= {:g} (s) or a smaller timestep",
+                    timestep, timestep / drive_->config().isr_period, kMaxInterruptsPerStep,
+                    LeastIsrPeriod(timestep)));
   }
   for (size_t slot = 0; slot < actuators_.size(); ++slot) {
     const Actuator& a = actuators_[slot];
     DriveState state = drive_->Load(Slot(m, d, instance, slot));
     // (A bad ctrl is counted by MuJoCo itself, mjWARN_BADCTRL, for plugin actuators too.)
     const double command = Command(m, d, a, &state);
-    if (!state.started) {
+    AdvanceStatus status = AdvanceStatus::kBadTime;
+    if (state.started || std::isfinite(t0)) {
       // actuator_length still holds the step's start value here (Euler, implicitfast).
-      state = drive_->Rest(t0, d->actuator_length[a.outadr], command);
+      if (!state.started) state = drive_->Rest(t0, d->actuator_length[a.outadr], command);
+      const double theta1 = a.gear * d->qpos[a.qposadr];  // rad, rotor side, at t1
+      status = drive_->Advance(&state, t0, t1, theta1, command);
+      drive_->Store(state, Slot(m, d, instance, slot));
     }
-    const double theta1 = a.gear * d->qpos[a.qposadr];  // rad, rotor side, at t1
-    drive_->Advance(&state, t0, t1, theta1, command);
-    drive_->Store(state, Slot(m, d, instance, slot));
+    if (status != AdvanceStatus::kOk) {
+      WarnOnce(kCauseStatus + static_cast<unsigned>(status),
+               fmt::format("mjstepper: {} at time {:g} s (timestep {:g} s): {}", actuator_name(a),
+                           t1, timestep, Describe(status)));
+    }
   }
 }
 

@@ -7,7 +7,7 @@
 //     capability, reading the signals of the drive on that actuator.
 // State: the drive's StateLayout (core, controller, profile) per bound actuator in plugin_state;
 // plugin_data holds the parsed configuration and the actuators' addresses (constant after init),
-// and one diagnostic flag (whether a too-coarse timestep was reported), never simulation state.
+// and diagnostic flags (which causes of a warning were reported), never simulation state.
 #ifndef MJSTEPPER_PLUGIN_STEPPER_H_
 #define MJSTEPPER_PLUGIN_STEPPER_H_
 
@@ -83,6 +83,14 @@ class Stepper {
   mjtNum* Slot(const mjModel* m, const mjData* d, int instance, int slot) const {
     return d->plugin_state + m->plugin_stateadr[instance] + slot * state_size_;
   }
+  // What Advance reports, each once per instance and mjData: a core AdvanceStatus, or these.
+  enum Cause : unsigned {
+    kCauseStatus = 0,          // + AdvanceStatus: bits 0..5
+    kCauseBadTimestep = 8,     // timestep not a positive finite number
+    kCauseManyInterrupts = 9,  // timestep raised past the load's interrupt bound
+  };
+  // Warns `message` through mju_warning unless `cause` was reported already; true if it warned.
+  bool WarnOnce(unsigned cause, const std::string& message) const;
   // The state of slot, or the rest state it starts in when it has not started.
   DriveState CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const;
   void ComputeProbe(const mjModel* m, mjData* d, int instance) const;
@@ -90,9 +98,9 @@ class Stepper {
   std::optional<Drive> drive_;  // empty for a probe
   int state_size_ = 0;          // doubles of plugin_state per actuator: drive_->layout().total()
   bool gauge_ = true;
-  // Whether a timestep raised past the interrupt bound after loading was reported (once per
-  // instance and mjData): a diagnostic, not simulation state.
-  mutable std::atomic<bool> warned_timestep_{false};
+  // The causes (bit 1 << Cause) already reported by this instance on this mjData: a diagnostic,
+  // not simulation state.
+  mutable std::atomic<unsigned> warned_{0};
   std::vector<Actuator> actuators_;  // bound actuators, in id order
 };
 

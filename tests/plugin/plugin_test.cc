@@ -4,7 +4,13 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <future>
+#include <limits>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -91,9 +97,11 @@ TEST(StepperPlugin, WorksUnderEveryIntegrator) {
     Step(m.get(), d.get(), 2000);
     EXPECT_NEAR((d->qpos[0] - q0) / 0.1, RpmToRadPerSec(100), 0.005 * RpmToRadPerSec(100))
         << integrator;
-    // One interrupt per 50 µs whatever the integrator: 6000 steps, 6000 ticks (next_tick counts).
-    EXPECT_EQ(d->plugin_state[offsetof(DriveCoreState, next_tick) / sizeof(double)], 6000)
-        << integrator;
+    // One interrupt per 50 µs whatever the integrator: 6000 steps, 6000 ticks (the index of the
+    // next one, its anchor's plus those after it, counts them).
+    DriveCoreState core;
+    std::memcpy(static_cast<void*>(&core), d->plugin_state, sizeof(core));
+    EXPECT_EQ(Drive::NextTickIndex(core), 6000) << integrator;
   }
 }
 
@@ -597,6 +605,134 @@ TEST(StepperPlugin, TimestepRaisedAfterLoadingIsReportedOnce) {
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_THAT(warnings[0], AllOf(HasSubstr("timestep 0.02 s runs 20000 interrupts per step"),
                                  HasSubstr("isr_period >= 2e-06")));
+}
+
+// Runs `steps` of mj_step on another thread and waits at most `seconds` for them; a step that
+// never returns (issue 16: the drive's event loop once stalled on NaN or huge times) fails the
+// test and ends the process, which could not otherwise stop the thread.
+void StepsReturnWithin(const mjModel* m, mjData* d, int steps, double seconds) {
+  std::packaged_task<void()> task([m, d, steps] {
+    for (int k = 0; k < steps; ++k) mj_step(m, d);
+  });
+  std::future<void> done = task.get_future();
+  std::thread thread(std::move(task));
+  if (done.wait_for(std::chrono::duration<double>(seconds)) != std::future_status::ready) {
+    ADD_FAILURE() << steps << " steps did not return within " << seconds << " s";
+    std::fprintf(stderr, "mj_step never returned: ending the test process\n");
+    std::_Exit(1);
+  }
+  thread.join();
+}
+
+// The warnings mju_warning sends while it lives (restoring the previous handler after).
+class CapturedWarnings {
+ public:
+  CapturedWarnings() : previous_(mju_user_warning) {
+    Messages().clear();
+    mju_user_warning = +[](const char* message) { Messages().emplace_back(message); };
+  }
+  ~CapturedWarnings() { mju_user_warning = previous_; }
+  const std::vector<std::string>& messages() const { return Messages(); }
+  // The plugin's own (MuJoCo's warnings, e.g. on a NaN qpos, are not counted).
+  std::vector<std::string> ours() const {
+    std::vector<std::string> out;
+    for (const std::string& m : Messages()) {
+      if (m.starts_with("mjstepper: ")) out.push_back(m);
+    }
+    return out;
+  }
+
+ private:
+  static std::vector<std::string>& Messages() {
+    static std::vector<std::string> messages;
+    return messages;
+  }
+  void (*previous_)(const char*);
+};
+
+bool AllFinite(const mjModel* m, const mjData* d) {
+  for (int i = 0; i < m->npluginstate; ++i) {
+    if (!std::isfinite(d->plugin_state[i])) return false;
+  }
+  for (int i = 0; i < m->nu; ++i) {
+    if (!std::isfinite(d->actuator_force[i])) return false;
+  }
+  return true;
+}
+
+std::string ShippedModel(const std::string& name) {
+  std::ifstream file(std::string(MJSTEPPER_SOURCE_DIR "/models/") + name);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+// Issue 16's first reproduction: a keyframe at time NaN (the CLI's --keyframe nan). The event loop
+// waited for a tick time above NaN for ever; now each step returns at once, the drive held, and
+// one warning names the actuator, the time and the cause.
+TEST(StepperPlugin, NanTimeFromAKeyframeReturnsAndWarnsOnce) {
+  std::string xml = ShippedModel("tsui_rigid.xml");
+  xml.replace(xml.rfind("</mujoco>"), 9,
+              R"(<keyframe><key name="nan" time="nan" qpos="0"/></keyframe></mujoco>)");
+  const ModelPtr m = LoadModel(xml);
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  mj_resetDataKeyframe(m.get(), d.get(), 0);
+  d->ctrl[0] = 10;
+  CapturedWarnings warnings;
+  StepsReturnWithin(m.get(), d.get(), 100, 10.0);
+  ASSERT_EQ(warnings.ours().size(), 1u);
+  EXPECT_THAT(warnings.ours()[0], AllOf(HasSubstr("actuator 'shaft' (id 0) at time nan s"),
+                                        HasSubstr("the step's time is not finite")));
+  EXPECT_TRUE(AllFinite(m.get(), d.get()));
+}
+
+// Issue 16: a 10 MHz drive at a Unix time (1.7e9 s, where times are 2.4e-7 s apart, coarser than
+// the 1e-7 s period: t + T was t) and the default 20 kHz drive at 1e13 s (tick indices past 2^53,
+// where k + 1 was k). Both stalled; now the steps return, the drive's state stays finite, and one
+// warning says the time is too coarse for the clock.
+TEST(StepperPlugin, HugeTimesReturnAndWarnOnce) {
+  struct Case {
+    std::string configs;
+    double time;  // s
+  };
+  for (const Case& c :
+       {Case{Config("isr_period", "1e-7") + Config("compute_delay", "0"), 1.7e9}, Case{"", 1e13}}) {
+    const ModelPtr m = LoadModel(RotorModel(TsuiActuator("shaft", "j1", c.configs)));
+    ASSERT_TRUE(m);
+    const DataPtr d(mj_makeData(m.get()));
+    d->time = c.time;
+    d->ctrl[0] = 0.5;  // rad
+    CapturedWarnings warnings;
+    StepsReturnWithin(m.get(), d.get(), 200, 10.0);
+    ASSERT_EQ(warnings.ours().size(), 1u) << c.time;
+    EXPECT_THAT(warnings.ours()[0], AllOf(HasSubstr("actuator 'shaft' (id 0) at time "),
+                                          HasSubstr(fmt::format("{:g} s", c.time)),
+                                          HasSubstr("round-off is not small against isr_period")));
+    EXPECT_TRUE(AllFinite(m.get(), d.get())) << c.time;
+  }
+}
+
+// Issue 16: a timestep set after loading to NaN, ±inf, a negative value or 0 (the compiler refuses
+// them all): each step returns, the drive is held, one warning names the timestep.
+TEST(StepperPlugin, BadTimestepAfterLoadingReturnsAndWarnsOnce) {
+  const double kInf = std::numeric_limits<double>::infinity();
+  for (double timestep : {std::numeric_limits<double>::quiet_NaN(), kInf, -kInf, -1e-3, 0.0}) {
+    const ModelPtr m = LoadModel(RotorModel(TsuiActuator("shaft", "j1", "")));
+    ASSERT_TRUE(m);
+    const DataPtr d(mj_makeData(m.get()));
+    d->ctrl[0] = 0.5;                               // rad
+    StepsReturnWithin(m.get(), d.get(), 10, 10.0);  // started
+    m->opt.timestep = timestep;
+    CapturedWarnings warnings;
+    StepsReturnWithin(m.get(), d.get(), 100, 10.0);
+    ASSERT_EQ(warnings.ours().size(), 1u) << timestep;
+    EXPECT_THAT(warnings.ours()[0],
+                AllOf(HasSubstr("actuator 'shaft' (id 0) at time "),
+                      HasSubstr(fmt::format("timestep = {:g} s is not a positive finite number",
+                                            timestep))));
+    EXPECT_TRUE(AllFinite(m.get(), d.get())) << timestep;
+  }
 }
 
 // When an instance's init fails, MuJoCo's mj_initPlugin (used by mj_copyData and the compiler's
