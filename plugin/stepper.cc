@@ -202,8 +202,10 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
           rotor_inertia, m->actuator_armature[a], rotor_inertia));
     }
     // The step the rotor alone needs (a load only lowers ωn): warn, as MuJoCo warns, if coarser.
+    // Stiffness: the drive's T' plus the detent's worst case, Σh h·Nr·Kdh (DetentStiffness).
     const double inertia = std::max(m->actuator_armature[a], rotor_inertia);
-    const double largest = LargestTimestep(stepper->drive_->HoldingStiffness(), inertia);
+    const double largest = LargestTimestep(
+        stepper->drive_->HoldingStiffness() + stepper->drive_->DetentStiffness(), inertia);
     if (advice && inertia > 0 && m->opt.timestep > largest) {
       mju_warning("%s", fmt::format("mjstepper: {}: timestep {:g} s is too coarse for the rotor "
                                     "alone (ωn·h = {:.3g} > {}); use timestep <= {:.3g} s",

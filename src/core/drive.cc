@@ -540,6 +540,12 @@ double Drive::RestCurrentMagnitude() const {
   return std::abs(s.current());
 }
 
+double Drive::DetentStiffness() const {
+  double sum = 0;  // Σh h·Kdh, N·m
+  for (const DetentHarmonic& h : config_.motor.detent) sum += h.order * std::abs(h.amplitude);
+  return constants_.rotor_teeth * sum;
+}
+
 double Drive::HoldingStiffness() const {
   const PhaseVector rest_current = Rest(0.0, 0.0, 0.0).current();
   return std::visit(

@@ -285,6 +285,11 @@ class Drive {
   /// 0 in identification mode.
   double HoldingStiffness() const;
 
+  /// The detent's largest stiffness, N·m/rad: |dτdet/dθ| <= Σh h·Nr·Kdh (S-5), reached where the
+  /// harmonics' slopes line up. It adds to T' where both peak together, so the timestep checks
+  /// (LargestTimestep) take T' + this as the worst case; 0 without a detent.
+  double DetentStiffness() const;
+
  private:
   // The step itself, on checked input; false if it hit kMaxEventsPerAdvance. `coarse`: work in
   // the step's frame t − t0 (CoarseTime), else in absolute time.

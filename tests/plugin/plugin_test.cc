@@ -445,6 +445,32 @@ TEST(StepperPlugin, ZeroGearFailsLoad) {
   EXPECT_THAT(error, AllOf(HasSubstr("actuator 'm1'"), HasSubstr("gear = 0")));
 }
 
+// The warnings mju_warning sends while it lives (restoring the previous handler after).
+class CapturedWarnings {
+ public:
+  CapturedWarnings() : previous_(mju_user_warning) {
+    Messages().clear();
+    mju_user_warning = +[](const char* message) { Messages().emplace_back(message); };
+  }
+  ~CapturedWarnings() { mju_user_warning = previous_; }
+  const std::vector<std::string>& messages() const { return Messages(); }
+  // The plugin's own (MuJoCo's warnings, e.g. on a NaN qpos, are not counted).
+  std::vector<std::string> ours() const {
+    std::vector<std::string> out;
+    for (const std::string& m : Messages()) {
+      if (m.starts_with("mjstepper: ")) out.push_back(m);
+    }
+    return out;
+  }
+
+ private:
+  static std::vector<std::string>& Messages() {
+    static std::vector<std::string> messages;
+    return messages;
+  }
+  void (*previous_)(const char*);
+};
+
 std::vector<std::string>* captured_warnings = nullptr;
 
 // At a step too coarse for the rotor alone, loading warns through mju_warning, naming the step
@@ -466,8 +492,27 @@ TEST(StepperPlugin, CoarseTimestepWarnsAtLoad) {
   ASSERT_GT(count[1], 0u);
   for (const std::string& w : warnings) {
     EXPECT_THAT(w, AllOf(HasSubstr("actuator 'm1'"), HasSubstr("timestep 0.001 s"),
-                         HasSubstr("use timestep <= 0.000225 s")));
+                         HasSubstr("use timestep <= 0.000213 s")));
   }
+}
+
+// Issue 16: a detent of 1e12 N·m (harmonic 4) holds the rotor far more stiffly than the drive does,
+// and loaded without a word while MuJoCo then reset every step. The timestep check now adds the
+// detent's worst-case stiffness Σh h·Nr·Kdh = 4·50·1e12 N·m/rad to T' = 28.5 N·m/rad: at J =
+// 3.6e-5 kg·m², ωn = 2.36e9 rad/s and the largest step 0.2/ωn = 8.49e-11 s. The shipped detent
+// (Σ = 3.15 N·m/rad) stays silent at 50 µs.
+TEST(StepperPlugin, StiffDetentWarnsAtLoad) {
+  CapturedWarnings warnings;
+  const ModelPtr m = LoadModel(RotorModel(
+      TsuiActuator("m1", "j1", Config("input", "velocity") + Config("detent", "4 1e12 0"))));
+  ASSERT_TRUE(m);
+  ASSERT_FALSE(warnings.ours().empty());
+  EXPECT_THAT(warnings.ours()[0],
+              AllOf(HasSubstr("actuator 'm1'"), HasSubstr("timestep 5e-05 s is too coarse"),
+                    HasSubstr("use timestep <= 8.49e-11 s")));
+  const size_t before = warnings.ours().size();
+  ASSERT_TRUE(LoadModel(RotorModel(TsuiActuator("m1", "j1", Config("input", "velocity")))));
+  EXPECT_EQ(warnings.ours().size(), before);
 }
 
 // The load-angle gauge (visualize callback): two arrows per stepper in the scene, the rotor's at
@@ -623,32 +668,6 @@ void StepsReturnWithin(const mjModel* m, mjData* d, int steps, double seconds) {
   }
   thread.join();
 }
-
-// The warnings mju_warning sends while it lives (restoring the previous handler after).
-class CapturedWarnings {
- public:
-  CapturedWarnings() : previous_(mju_user_warning) {
-    Messages().clear();
-    mju_user_warning = +[](const char* message) { Messages().emplace_back(message); };
-  }
-  ~CapturedWarnings() { mju_user_warning = previous_; }
-  const std::vector<std::string>& messages() const { return Messages(); }
-  // The plugin's own (MuJoCo's warnings, e.g. on a NaN qpos, are not counted).
-  std::vector<std::string> ours() const {
-    std::vector<std::string> out;
-    for (const std::string& m : Messages()) {
-      if (m.starts_with("mjstepper: ")) out.push_back(m);
-    }
-    return out;
-  }
-
- private:
-  static std::vector<std::string>& Messages() {
-    static std::vector<std::string> messages;
-    return messages;
-  }
-  void (*previous_)(const char*);
-};
 
 bool AllFinite(const mjModel* m, const mjData* d) {
   for (int i = 0; i < m->npluginstate; ++i) {
