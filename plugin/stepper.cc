@@ -151,6 +151,12 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
   // Every step runs each interrupt in it (and MuJoCo's compiler steps once while loading): bound
   // their number, so that no config makes a load or a step take unbounded time.
   const double isr_period = std::get<StepperConfig>(parsed).drive.isr_period;  // s
+  if (!(m->opt.timestep > 0 && std::isfinite(m->opt.timestep))) {
+    return fail(
+        fmt::format("timestep = {:g} s (the model's <option timestep>): must be finite and "
+                    "> 0",
+                    m->opt.timestep));
+  }
   if (!InterruptsFit(m->opt.timestep, isr_period)) {
     const char* raw = read("isr_period");
     return fail(fmt::format(
@@ -181,11 +187,13 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
     if (m->actuator_ctrlnum[a] != 1 || m->actuator_outnum[a] != 1) {
       return fail_for(actuator, "the stepper takes one control and drives one output");
     }
+    // |gear| in [kMinGear, kMaxGear]: a rotor angle gear·q that neither underflows (1e-300 made
+    // it 0) nor turns the drive's kMaxCommand into a joint angle MuJoCo's own bound refuses.
     const double gear = m->actuator_gear[6 * m->actuator_outadr[a]];
-    if (!(std::abs(gear) > 0) || !std::isfinite(gear)) {
-      return fail_for(actuator, fmt::format("gear = {:g}: must be finite and nonzero (the rotor "
-                                            "turns gear times the joint)",
-                                            gear));
+    if (!(std::abs(gear) >= kMinGear && std::abs(gear) <= kMaxGear)) {
+      return fail_for(actuator, fmt::format("gear = {:g}: |gear| must be between {:g} and {:g} "
+                                            "(the rotor turns gear times the joint)",
+                                            gear, kMinGear, kMaxGear));
     }
     stepper->actuators_.push_back({.id = a,
                                    .ctrladr = m->actuator_ctrladr[a],

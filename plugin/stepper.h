@@ -25,6 +25,13 @@ namespace mjstepper::plugin {
 
 inline constexpr char kPluginName[] = "mjstepper.stepper";
 
+/// The range of |gear| a stepper actuator takes (rotor angle = gear · joint angle): 1e-6 (a rotor
+/// turning a millionth of its joint) to 1e6 (a million turns per joint turn) covers every
+/// gearbox, lead screw and pulley; beyond, the rotor angle underflows or the joint's motion is
+/// below round-off.
+inline constexpr double kMinGear = 1e-6;
+inline constexpr double kMaxGear = 1e6;
+
 /// "" when the headers and the library agree, else a message naming both versions. Exported (the
 /// library hides everything else) for the plugin tests.
 [[gnu::visibility("default")]] std::string VersionMismatch(int built_for, int running);

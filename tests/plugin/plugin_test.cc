@@ -445,6 +445,40 @@ TEST(StepperPlugin, ZeroGearFailsLoad) {
   EXPECT_THAT(error, AllOf(HasSubstr("actuator 'm1'"), HasSubstr("gear = 0")));
 }
 
+// Issue 16: gear="1e-300" loaded, and the rotor angle gear·q underflowed to 0. |gear| is bounded
+// to [1e-6, 1e6]; a load error names the gear and the range, and the ends themselves load.
+TEST(StepperPlugin, GearOutOfRangeFailsLoad) {
+  const auto actuator = [](const std::string& gear) {
+    return R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" gear=")" + gear +
+           R"(" armature="0.36e-4">)" + Config("input", "velocity") + "</plugin>";
+  };
+  for (const char* gear : {"1e-300", "9.9e-7", "-1.01e6", "1e300"}) {
+    std::string error;
+    EXPECT_FALSE(LoadModel(RotorModel(actuator(gear)), &error)) << gear;
+    EXPECT_THAT(error, AllOf(HasSubstr("actuator 'm1'"),
+                             HasSubstr(fmt::format("gear = {:g}", std::stod(gear))),
+                             HasSubstr("|gear| must be between 1e-06 and 1e+06")));
+  }
+  for (const char* gear : {"1e-6", "-1e6"}) {
+    std::string error;
+    EXPECT_TRUE(LoadModel(RotorModel(actuator(gear)), &error)) << gear << ": " << error;
+  }
+}
+
+// Issue 16: a timestep of NaN or inf in the MJCF was refused with "use isr_period >= nan", blaming
+// the drive. The message now names the timestep.
+TEST(StepperPlugin, NonFiniteTimestepFailsLoadNamingIt) {
+  for (double timestep :
+       {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    std::string error;
+    EXPECT_FALSE(LoadModel(RotorModel(TsuiActuator("m1", "j1", ""), "", "", 1, timestep), &error));
+    EXPECT_THAT(error, AllOf(HasSubstr("actuator 'm1'"),
+                             HasSubstr(fmt::format("timestep = {:g} s", timestep)),
+                             HasSubstr("must be finite and > 0")));
+    EXPECT_THAT(error, ::testing::Not(HasSubstr("isr_period")));
+  }
+}
+
 // The warnings mju_warning sends while it lives (restoring the previous handler after).
 class CapturedWarnings {
  public:
