@@ -87,13 +87,15 @@ int Stepper::Init(const mjModel* m, mjData* d, int instance) {
   try {  // no exception crosses into MuJoCo
     int first = 0;
     while (!IsStepperInstance(m, first)) ++first;
+    std::unique_ptr<Stepper> stepper = Create(m, instance);
+    bool ok = stepper != nullptr;
     if (instance == first) {
+      // Every later instance's errors too, after this one's: in model order, all of them.
       for (int later = instance + 1; later < m->nplugin; ++later) {
-        if (IsStepperInstance(m, later) && !Create(m, later, /*advice=*/false)) return -1;
+        if (IsStepperInstance(m, later) && !Create(m, later, /*advice=*/false)) ok = false;
       }
     }
-    std::unique_ptr<Stepper> stepper = Create(m, instance);
-    if (!stepper) return -1;
+    if (!ok) return -1;  // (this instance's Stepper, if made, is freed here)
     d->plugin_data[instance] = reinterpret_cast<uintptr_t>(stepper.release());
     return 0;
   } catch (const std::exception& e) {

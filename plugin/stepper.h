@@ -45,7 +45,8 @@ class Stepper {
 
   /// The plugin's init: creates the instance into plugin_data; 0, or -1 on error. MuJoCo frees
   /// mjData without destroying the instances made before a failing one, so the model's first
-  /// stepper instance checks every later one before any is made.
+  /// stepper instance checks every later one before any is stored; its errors come first, then
+  /// theirs, in model order (each one warned once).
   static int Init(const mjModel* m, mjData* d, int instance);
 
   /// Steppers alive in this process (plugin_data that was never destroyed shows up here).

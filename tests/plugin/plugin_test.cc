@@ -809,6 +809,26 @@ TEST(StepperPlugin, ABadLaterInstanceLeaksNoEarlierOne) {
   EXPECT_EQ(d->plugin_data[0], made);  // untouched, and destroyed with d
 }
 
+// Issue 16: with two bad steppers, the first instance checked the later one first and returned,
+// so the later one's error was reported and the first one's hidden. Errors now come in model
+// order, all of them: the first actuator's, then the second's; with only the first bad, its own.
+TEST(StepperPlugin, LoadErrorsComeInModelOrder) {
+  const std::string first_error = "actuator 'a' (id 0): bus_voltage = \"48V\"";
+  const std::string second_error = "actuator 'b' (id 1): kp = \"x\"";
+  std::string error;
+  EXPECT_FALSE(LoadModel(RotorModel(TsuiActuator("a", "j1", Config("bus_voltage", "48V")) +
+                                    TsuiActuator("b", "j1", Config("kp", "x"))),
+                         &error));
+  const size_t first = error.find(first_error), second = error.find(second_error);
+  ASSERT_NE(first, std::string::npos) << error;
+  ASSERT_NE(second, std::string::npos) << error;
+  EXPECT_LT(first, second) << error;
+  EXPECT_FALSE(LoadModel(RotorModel(TsuiActuator("a", "j1", Config("bus_voltage", "48V")) +
+                                    TsuiActuator("b", "j1", "")),
+                         &error));
+  EXPECT_THAT(error, HasSubstr(first_error));
+}
+
 TEST(StepperPlugin, UnknownAttributeFailsLoad) {
   std::string error;
   const ModelPtr m =
