@@ -197,8 +197,15 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
                                             "(the rotor turns gear times the joint)",
                                             gear, kMinGear, kMaxGear));
     }
+    // With a dyntype (filter, integrator, ...) MuJoCo integrates the actuator's activation from
+    // ctrl, and its own actuators feed that activation, not ctrl, to their gain: so does the
+    // drive, reading the last activation element (MuJoCo's act_last, where it writes act_dot).
+    const int actadr = m->actuator_dyntype[a] != mjDYN_NONE && m->actuator_actnum[a] > 0
+                           ? m->actuator_actadr[a] + m->actuator_actnum[a] - 1
+                           : -1;
     stepper->actuators_.push_back({.id = a,
                                    .ctrladr = m->actuator_ctrladr[a],
+                                   .actadr = actadr,
                                    .outadr = m->actuator_outadr[a],
                                    .qposadr = m->jnt_qposadr[joint],
                                    .gear = gear});
@@ -243,6 +250,12 @@ double Stepper::Command(const mjModel* m, const mjData* d, const Actuator& a,
   // (mju_isBad: NaN or beyond mjMAXVAL = kMaxCommand), which also counts it as mjWARN_BADCTRL for
   // every actuator. MuJoCo then zeroes all controls; a drive instead keeps its command
   // (Drive::CommandFrom), so that one bad sample neither turns its state to NaN nor jerks it.
+  if (a.actadr >= 0) {
+    // The activation MuJoCo integrated from ctrl (already within actrange if actlimited). Read
+    // in advance, after MuJoCo's integration, it is the step's end value: the command over the
+    // step is the one MuJoCo's own actuators use with actearly="true" (plugin/README.md).
+    return drive_->CommandFrom(d->act[a.actadr], state, d->actuator_length[a.outadr]);
+  }
   double ctrl = d->ctrl[a.ctrladr];
   if (m->actuator_ctrllimited[a.ctrladr] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL)) {
     ctrl = std::clamp(ctrl, m->actuator_ctrlrange[2 * a.ctrladr],

@@ -78,14 +78,16 @@ class Stepper {
   struct Actuator {
     int id = -1;
     int ctrladr = 0;
+    int actadr = -1;  // the activation the drive reads instead of ctrl (a dyntype set), or -1
     int outadr = 0;
     int qposadr = 0;
     double gear = 1;
   };
 
   Stepper();
-  /// The actuator's command from its ctrl, clamped as MuJoCo would; a bad ctrl (NaN, infinite,
-  /// beyond mjMAXVAL) holds the drive's command instead (`state`: the drive's, if started).
+  /// The actuator's command from its ctrl, clamped as MuJoCo would, or from its activation when
+  /// it has a dyntype; a bad one (NaN, infinite, beyond mjMAXVAL) holds the drive's command
+  /// instead (`state`: the drive's, if started).
   double Command(const mjModel* m, const mjData* d, const Actuator& a,
                  const DriveState* state) const;
   mjtNum* Slot(const mjModel* m, const mjData* d, int instance, int slot) const {

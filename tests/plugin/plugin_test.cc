@@ -829,6 +829,53 @@ TEST(StepperPlugin, LoadErrorsComeInModelOrder) {
   EXPECT_THAT(error, HasSubstr(first_error));
 }
 
+// Issue 16: dyntype="filter" loaded and MuJoCo integrated act, but the drive read the raw ctrl, so
+// the dynamics were silently ignored. The drive now reads the activation, as MuJoCo's own
+// actuators feed act to their gain: a 1 rad step of ctrl through a 20 ms filter reaches the drive
+// as MuJoCo's act (exactly: the command θcmd it holds after each step is act at the step's end),
+// 0.39 rad after 10 ms where ctrl is 1 rad.
+TEST(StepperPlugin, DyntypeFeedsTheActivation) {
+  const std::string actuator =
+      R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" armature="0.36e-4" )"
+      R"(dyntype="filter" dynprm="0.02">)" +
+      Config("drive", "ideal_current") + "</plugin>";
+  const ModelPtr m = LoadModel(RotorModel(
+      actuator, "", R"(<plugin plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  ASSERT_TRUE(m);
+  ASSERT_EQ(m->na, 1);
+  const DataPtr d(mj_makeData(m.get()));
+  d->ctrl[0] = 1.0;  // rad
+  for (int k = 0; k < 200; ++k) {
+    mj_step(m.get(), d.get());
+    mj_forward(m.get(), d.get());  // the signals of the state after the step
+    ASSERT_EQ(d->sensordata[kThetaCmd], d->act[0]) << "step " << k;
+  }
+  EXPECT_NEAR(d->act[0], 1 - std::exp(-0.01 / 0.02), 0.01);  // Euler's 1 − (1 − h/τ)^200
+  EXPECT_LT(d->sensordata[kThetaCmd], 0.5);
+}
+
+// Issue 16: with forcerange="-0.01 0.01" MuJoCo clips actuator_force to 0.01 N·m while the
+// torque_total signal said 0.5 N·m and the docs called it the actuator force. It is the motor's
+// own torque τm + τdet, before the clamp, and the signal table says so: a rotor held 0.02 rad
+// behind its command by ideal currents (δ = Nr·0.02 = 1 rad) makes Km·I·sin δ ≈ 0.48 N·m.
+TEST(StepperPlugin, ForcerangeClipsTheForceNotTheMotorTorque) {
+  const std::string actuator =
+      R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" armature="0.36e-4" )"
+      R"(forcelimited="true" forcerange="-0.01 0.01">)" +
+      Config("drive", "ideal_current") + Config("detent", "none") + "</plugin>";
+  const ModelPtr m = LoadModel(RotorModel(
+      actuator, "", R"(<plugin plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  d->ctrl[0] = 0.02;  // rad: δ = 1 electrical rad
+  mj_forward(m.get(), d.get());
+  EXPECT_EQ(d->actuator_force[0], 0.01);
+  const double torque = 1.9 * 0.3 * std::sin(1.0);  // I·Km·sin δ, N·m
+  EXPECT_NEAR(d->sensordata[kTorqueTotal], torque, 1e-9);
+  EXPECT_THAT(SignalTable()[kTorqueTotal].meaning,
+              AllOf(HasSubstr("before MuJoCo's forcerange clamp"), HasSubstr("actuator_force")));
+}
+
 TEST(StepperPlugin, UnknownAttributeFailsLoad) {
   std::string error;
   const ModelPtr m =
