@@ -87,13 +87,15 @@ int Stepper::Init(const mjModel* m, mjData* d, int instance) {
   try {  // no exception crosses into MuJoCo
     int first = 0;
     while (!IsStepperInstance(m, first)) ++first;
+    std::unique_ptr<Stepper> stepper = Create(m, instance);
+    bool ok = stepper != nullptr;
     if (instance == first) {
+      // Every later instance's errors too, after this one's: in model order, all of them.
       for (int later = instance + 1; later < m->nplugin; ++later) {
-        if (IsStepperInstance(m, later) && !Create(m, later, /*advice=*/false)) return -1;
+        if (IsStepperInstance(m, later) && !Create(m, later, /*advice=*/false)) ok = false;
       }
     }
-    std::unique_ptr<Stepper> stepper = Create(m, instance);
-    if (!stepper) return -1;
+    if (!ok) return -1;  // (this instance's Stepper, if made, is freed here)
     d->plugin_data[instance] = reinterpret_cast<uintptr_t>(stepper.release());
     return 0;
   } catch (const std::exception& e) {
@@ -151,6 +153,12 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
   // Every step runs each interrupt in it (and MuJoCo's compiler steps once while loading): bound
   // their number, so that no config makes a load or a step take unbounded time.
   const double isr_period = std::get<StepperConfig>(parsed).drive.isr_period;  // s
+  if (!(m->opt.timestep > 0 && std::isfinite(m->opt.timestep))) {
+    return fail(
+        fmt::format("timestep = {:g} s (the model's <option timestep>): must be finite and "
+                    "> 0",
+                    m->opt.timestep));
+  }
   if (!InterruptsFit(m->opt.timestep, isr_period)) {
     const char* raw = read("isr_period");
     return fail(fmt::format(
@@ -181,14 +189,23 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
     if (m->actuator_ctrlnum[a] != 1 || m->actuator_outnum[a] != 1) {
       return fail_for(actuator, "the stepper takes one control and drives one output");
     }
+    // |gear| in [kMinGear, kMaxGear]: a rotor angle gear·q that neither underflows (1e-300 made
+    // it 0) nor turns the drive's kMaxCommand into a joint angle MuJoCo's own bound refuses.
     const double gear = m->actuator_gear[6 * m->actuator_outadr[a]];
-    if (!(std::abs(gear) > 0) || !std::isfinite(gear)) {
-      return fail_for(actuator, fmt::format("gear = {:g}: must be finite and nonzero (the rotor "
-                                            "turns gear times the joint)",
-                                            gear));
+    if (!(std::abs(gear) >= kMinGear && std::abs(gear) <= kMaxGear)) {
+      return fail_for(actuator, fmt::format("gear = {:g}: |gear| must be between {:g} and {:g} "
+                                            "(the rotor turns gear times the joint)",
+                                            gear, kMinGear, kMaxGear));
     }
+    // With a dyntype (filter, integrator, ...) MuJoCo integrates the actuator's activation from
+    // ctrl, and its own actuators feed that activation, not ctrl, to their gain: so does the
+    // drive, reading the last activation element (MuJoCo's act_last, where it writes act_dot).
+    const int actadr = m->actuator_dyntype[a] != mjDYN_NONE && m->actuator_actnum[a] > 0
+                           ? m->actuator_actadr[a] + m->actuator_actnum[a] - 1
+                           : -1;
     stepper->actuators_.push_back({.id = a,
                                    .ctrladr = m->actuator_ctrladr[a],
+                                   .actadr = actadr,
                                    .outadr = m->actuator_outadr[a],
                                    .qposadr = m->jnt_qposadr[joint],
                                    .gear = gear});
@@ -202,8 +219,10 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
           rotor_inertia, m->actuator_armature[a], rotor_inertia));
     }
     // The step the rotor alone needs (a load only lowers ωn): warn, as MuJoCo warns, if coarser.
+    // Stiffness: the drive's T' plus the detent's worst case, Σh h·Nr·Kdh (DetentStiffness).
     const double inertia = std::max(m->actuator_armature[a], rotor_inertia);
-    const double largest = LargestTimestep(stepper->drive_->HoldingStiffness(), inertia);
+    const double largest = LargestTimestep(
+        stepper->drive_->HoldingStiffness() + stepper->drive_->DetentStiffness(), inertia);
     if (advice && inertia > 0 && m->opt.timestep > largest) {
       mju_warning("%s", fmt::format("mjstepper: {}: timestep {:g} s is too coarse for the rotor "
                                     "alone (ωn·h = {:.3g} > {}); use timestep <= {:.3g} s",
@@ -231,6 +250,12 @@ double Stepper::Command(const mjModel* m, const mjData* d, const Actuator& a,
   // (mju_isBad: NaN or beyond mjMAXVAL = kMaxCommand), which also counts it as mjWARN_BADCTRL for
   // every actuator. MuJoCo then zeroes all controls; a drive instead keeps its command
   // (Drive::CommandFrom), so that one bad sample neither turns its state to NaN nor jerks it.
+  if (a.actadr >= 0) {
+    // The activation MuJoCo integrated from ctrl (already within actrange if actlimited). Read
+    // in advance, after MuJoCo's integration, it is the step's end value: the command over the
+    // step is the one MuJoCo's own actuators use with actearly="true" (plugin/README.md).
+    return drive_->CommandFrom(d->act[a.actadr], state, d->actuator_length[a.outadr]);
+  }
   double ctrl = d->ctrl[a.ctrladr];
   if (m->actuator_ctrllimited[a.ctrladr] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL)) {
     ctrl = std::clamp(ctrl, m->actuator_ctrlrange[2 * a.ctrladr],
@@ -266,32 +291,57 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
   }
 }
 
+bool Stepper::WarnOnce(unsigned cause, const std::string& message) const {
+  const unsigned bit = 1u << cause;
+  if (warned_.fetch_or(bit) & bit) return false;
+  mju_warning("%s", message.c_str());
+  return true;
+}
+
 void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
   if (!drive_) return;
+  const double timestep = m->opt.timestep;  // s
   const double t1 = d->time;  // s, the step's end: MuJoCo advances time before plugins
-  const double t0 = t1 - m->opt.timestep;
-  if (!InterruptsFit(m->opt.timestep, drive_->config().isr_period) &&
-      !warned_timestep_.exchange(true)) {
-    // Raised after loading (which refuses it): every interrupt still runs, so say what it costs.
-    mju_warning("%s", fmt::format("mjstepper: timestep {:g} s runs {:.0f} interrupts per step, "
-                                  "more than the {} a load allows; use isr_period >= {:g} (s) or "
-                                  "a smaller timestep",
-                                  m->opt.timestep, m->opt.timestep / drive_->config().isr_period,
-                                  kMaxInterruptsPerStep, LeastIsrPeriod(m->opt.timestep))
-                          .c_str());
+  auto actuator_name = [m](const Actuator& a) {
+    return fmt::format("actuator '{}' (id {})", NameOf(m, m->name_actuatoradr[a.id]), a.id);
+  };
+  if (!(timestep > 0 && std::isfinite(timestep))) {
+    // Set after loading (the compiler refuses it): the drives are held as they are.
+    WarnOnce(kCauseBadTimestep,
+             fmt::format("mjstepper: {} at time {:g} s: timestep = {:g} s is not a positive finite "
+                         "number; the drive is held unchanged",
+                         actuator_name(actuators_.front()), t1, timestep));
+    return;
+  }
+  const double t0 = t1 - timestep;
+  if (!InterruptsFit(timestep, drive_->config().isr_period)) {
+    // Raised after loading (which refuses it): every interrupt still runs (up to the drive's
+    // kMaxTicksPerAdvance), so say what it costs.
+    WarnOnce(
+        kCauseManyInterrupts,
+        fmt::format("mjstepper: timestep {:g} s runs {:.0f} interrupts per step, more than the "
+                    "{} a load allows; use isr_period >= {:g} (s) or a smaller timestep",
+                    timestep, timestep / drive_->config().isr_period, kMaxInterruptsPerStep,
+                    LeastIsrPeriod(timestep)));
   }
   for (size_t slot = 0; slot < actuators_.size(); ++slot) {
     const Actuator& a = actuators_[slot];
     DriveState state = drive_->Load(Slot(m, d, instance, slot));
     // (A bad ctrl is counted by MuJoCo itself, mjWARN_BADCTRL, for plugin actuators too.)
     const double command = Command(m, d, a, &state);
-    if (!state.started) {
+    AdvanceStatus status = AdvanceStatus::kBadTime;
+    if (state.started || std::isfinite(t0)) {
       // actuator_length still holds the step's start value here (Euler, implicitfast).
-      state = drive_->Rest(t0, d->actuator_length[a.outadr], command);
+      if (!state.started) state = drive_->Rest(t0, d->actuator_length[a.outadr], command);
+      const double theta1 = a.gear * d->qpos[a.qposadr];  // rad, rotor side, at t1
+      status = drive_->Advance(&state, t0, t1, theta1, command);
+      drive_->Store(state, Slot(m, d, instance, slot));
     }
-    const double theta1 = a.gear * d->qpos[a.qposadr];  // rad, rotor side, at t1
-    drive_->Advance(&state, t0, t1, theta1, command);
-    drive_->Store(state, Slot(m, d, instance, slot));
+    if (status != AdvanceStatus::kOk) {
+      WarnOnce(kCauseStatus + static_cast<unsigned>(status),
+               fmt::format("mjstepper: {} at time {:g} s (timestep {:g} s): {}", actuator_name(a),
+                           t1, timestep, Describe(status)));
+    }
   }
 }
 

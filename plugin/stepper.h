@@ -7,7 +7,7 @@
 //     capability, reading the signals of the drive on that actuator.
 // State: the drive's StateLayout (core, controller, profile) per bound actuator in plugin_state;
 // plugin_data holds the parsed configuration and the actuators' addresses (constant after init),
-// and one diagnostic flag (whether a too-coarse timestep was reported), never simulation state.
+// and diagnostic flags (which causes of a warning were reported), never simulation state.
 #ifndef MJSTEPPER_PLUGIN_STEPPER_H_
 #define MJSTEPPER_PLUGIN_STEPPER_H_
 
@@ -25,6 +25,13 @@ namespace mjstepper::plugin {
 
 inline constexpr char kPluginName[] = "mjstepper.stepper";
 
+/// The range of |gear| a stepper actuator takes (rotor angle = gear · joint angle): 1e-6 (a rotor
+/// turning a millionth of its joint) to 1e6 (a million turns per joint turn) covers every
+/// gearbox, lead screw and pulley; beyond, the rotor angle underflows or the joint's motion is
+/// below round-off.
+inline constexpr double kMinGear = 1e-6;
+inline constexpr double kMaxGear = 1e6;
+
 /// "" when the headers and the library agree, else a message naming both versions. Exported (the
 /// library hides everything else) for the plugin tests.
 [[gnu::visibility("default")]] std::string VersionMismatch(int built_for, int running);
@@ -38,7 +45,8 @@ class Stepper {
 
   /// The plugin's init: creates the instance into plugin_data; 0, or -1 on error. MuJoCo frees
   /// mjData without destroying the instances made before a failing one, so the model's first
-  /// stepper instance checks every later one before any is made.
+  /// stepper instance checks every later one before any is stored; its errors come first, then
+  /// theirs, in model order (each one warned once).
   static int Init(const mjModel* m, mjData* d, int instance);
 
   /// Steppers alive in this process (plugin_data that was never destroyed shows up here).
@@ -70,19 +78,29 @@ class Stepper {
   struct Actuator {
     int id = -1;
     int ctrladr = 0;
+    int actadr = -1;  // the activation the drive reads instead of ctrl (a dyntype set), or -1
     int outadr = 0;
     int qposadr = 0;
     double gear = 1;
   };
 
   Stepper();
-  /// The actuator's command from its ctrl, clamped as MuJoCo would; a bad ctrl (NaN, infinite,
-  /// beyond mjMAXVAL) holds the drive's command instead (`state`: the drive's, if started).
+  /// The actuator's command from its ctrl, clamped as MuJoCo would, or from its activation when
+  /// it has a dyntype; a bad one (NaN, infinite, beyond mjMAXVAL) holds the drive's command
+  /// instead (`state`: the drive's, if started).
   double Command(const mjModel* m, const mjData* d, const Actuator& a,
                  const DriveState* state) const;
   mjtNum* Slot(const mjModel* m, const mjData* d, int instance, int slot) const {
     return d->plugin_state + m->plugin_stateadr[instance] + slot * state_size_;
   }
+  // What Advance reports, each once per instance and mjData: a core AdvanceStatus, or these.
+  enum Cause : unsigned {
+    kCauseStatus = 0,          // + AdvanceStatus: bits 0..5
+    kCauseBadTimestep = 8,     // timestep not a positive finite number
+    kCauseManyInterrupts = 9,  // timestep raised past the load's interrupt bound
+  };
+  // Warns `message` through mju_warning unless `cause` was reported already; true if it warned.
+  bool WarnOnce(unsigned cause, const std::string& message) const;
   // The state of slot, or the rest state it starts in when it has not started.
   DriveState CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const;
   void ComputeProbe(const mjModel* m, mjData* d, int instance) const;
@@ -90,9 +108,9 @@ class Stepper {
   std::optional<Drive> drive_;  // empty for a probe
   int state_size_ = 0;          // doubles of plugin_state per actuator: drive_->layout().total()
   bool gauge_ = true;
-  // Whether a timestep raised past the interrupt bound after loading was reported (once per
-  // instance and mjData): a diagnostic, not simulation state.
-  mutable std::atomic<bool> warned_timestep_{false};
+  // The causes (bit 1 << Cause) already reported by this instance on this mjData: a diagnostic,
+  // not simulation state.
+  mutable std::atomic<unsigned> warned_{0};
   std::vector<Actuator> actuators_;  // bound actuators, in id order
 };
 

@@ -39,7 +39,11 @@ bool ParseFiniteDouble(const std::string& text, double* value) {
   if (t.empty()) return false;
   const char* begin = t.data();
   const char* end = t.data() + t.size();
-  if (*begin == '+') ++begin;  // from_chars rejects a leading '+'
+  // from_chars rejects a leading '+': skip one, but then no second sign ("+-1" is no number).
+  if (*begin == '+') {
+    ++begin;
+    if (begin == end || *begin == '-' || *begin == '+') return false;
+  }
   const auto [ptr, ec] = std::from_chars(begin, end, *value);
   return ec == std::errc() && ptr == end && std::isfinite(*value);
 }

@@ -37,7 +37,7 @@ class ConfigError : public std::runtime_error {
                            const std::string& rule);
 
 /// Strict number parsing: the whole string (surrounding blanks allowed) must be one finite number.
-/// "48" and "4.8e1" pass; "", "48V", "nan", "inf", "4,8" fail.
+/// "48", "+48" and "4.8e1" pass; "", "48V", "nan", "inf", "4,8", "+-48", "++48" fail.
 bool ParseFiniteDouble(const std::string& text, double* value);
 
 std::string Trim(const std::string& s);

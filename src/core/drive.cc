@@ -177,9 +177,76 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   s.current_b = s.current_ref_b = current.imag();
   s.voltage_a = s.pending_a = voltage.real();
   s.voltage_b = s.pending_b = voltage.imag();
-  s.next_tick = s.anchor_tick = std::ceil(time / config_.isr_period);
-  s.anchor_time = s.next_tick * config_.isr_period;
+  AnchorAt(&s, time, CoarseTime(time));
   return s;
+}
+
+void Drive::AnchorAt(DriveCoreState* s, double time, bool coarse) const {
+  const double period = config_.isr_period;  // T
+  s->next_tick = 0;
+  const double k = std::ceil(time / period);
+  // k is kept below 2^53, where it is an exact integer; it only labels ticks (Sample::tick).
+  constexpr double kLabelRange = 9007199254740992.0;  // 2^53
+  s->anchor_tick = std::isfinite(k) ? std::fmod(k, kLabelRange) : 0.0;
+  // On the grid k·T while that is representable to the clock's resolution; else the step's time.
+  s->anchor_time = coarse ? time : k * period;
+}
+
+[[gnu::cold]] void Drive::Restart(DriveState* s, double time, double theta, double command,
+                                  bool keep_energies) const {
+  const double energies[3] = {s->energy_input, s->energy_copper, s->energy_mechanical};
+  *s = Rest(time, theta, command);
+  if (keep_energies) {
+    s->energy_input = energies[0];
+    s->energy_copper = energies[1];
+    s->energy_mechanical = energies[2];
+  }
+}
+
+bool Drive::CoarseTime(double t) const {
+  return 8 * std::numeric_limits<double>::epsilon() * std::abs(t) >
+         kCoarseTimeFraction * config_.isr_period;
+}
+
+bool Drive::Finite(const DriveState& s) const {
+  // x·0 is 0 for a finite x and NaN otherwise: sums of them over the stored doubles, no branch
+  // each, in four independent lanes (the order of the sums does not matter: any NaN stays).
+  double lanes[4] = {0, 0, 0, 0};
+  auto add = [&lanes](const double* x, int count) {
+    int i = 0;
+    for (; i + 4 <= count; i += 4) {
+      for (int j = 0; j < 4; ++j) lanes[j] += x[i + j] * 0;
+    }
+    for (; i < count; ++i) lanes[0] += x[i] * 0;
+  };
+  constexpr int kCore = sizeof(DriveCoreState) / sizeof(double);
+  double core[kCore];
+  std::memcpy(core, static_cast<const void*>(static_cast<const DriveCoreState*>(&s)), sizeof(core));
+  add(core, kCore);
+  add(s.unit.data(), layout_.controller + layout_.profile);
+  return lanes[0] + lanes[1] + lanes[2] + lanes[3] == 0;
+}
+
+const char* Describe(AdvanceStatus status) {
+  switch (status) {
+    case AdvanceStatus::kOk:
+      return "";
+    case AdvanceStatus::kBadTime:
+      return "the step's time is not finite or runs backwards; the drive is held unchanged";
+    case AdvanceStatus::kBadInput:
+      return "the rotor angle or the command is not finite or beyond 1e10; the drive is held "
+             "unchanged";
+    case AdvanceStatus::kBadState:
+      return "the drive's stored state held a value that is not finite; the drive restarted at "
+             "rest";
+    case AdvanceStatus::kEventBound:
+      return "the step holds more interrupts than one step may run (100000); the drive restarted "
+             "at rest at the step's end";
+    case AdvanceStatus::kCoarseTime:
+      return "the time is so large that its round-off is not small against isr_period; the "
+             "drive's clock follows the step times, which are this coarse";
+  }
+  return "";
 }
 
 double Drive::CommandFrom(double ctrl, const DriveState* state, double theta) const {
@@ -193,19 +260,50 @@ double Drive::CommandFrom(double ctrl, const DriveState* state, double theta) co
   return state->theta_cmd;
 }
 
-void Drive::Advance(DriveState* s, double t0, double t1, double theta1, double command) const {
-  std::visit([&](const auto& unit) { AdvanceWith(unit, s, t0, t1, theta1, command); },
-             config_.controller);
+AdvanceStatus Drive::Advance(DriveState* s, double t0, double t1, double theta1,
+                             double command) const {
+  // Each check is written so that NaN fails it.
+  if (!(std::isfinite(t0) && std::isfinite(t1) && t1 >= t0)) return AdvanceStatus::kBadTime;
+  const bool input_ok = std::abs(theta1) <= kMaxCommand && std::abs(command) <= kMaxCommand;
+  if (!input_ok) return AdvanceStatus::kBadInput;
+  if (t1 - t0 > kMaxTicksPerAdvance * config_.isr_period) {
+    // Too long a step to run tick by tick: the drive would have settled on its command.
+    Restart(s, t1, theta1, command, /*keep_energies=*/true);
+    return AdvanceStatus::kEventBound;
+  }
+  // A clock far from its anchor re-anchors at its next tick, so that n stays a small integer.
+  if (!(s->next_tick >= 0 && s->next_tick <= kMaxTicksFromAnchor)) {
+    s->anchor_time = NextTickTime(*s);
+    s->anchor_tick = std::fmod(s->anchor_tick + s->next_tick, 9007199254740992.0);  // < 2^53
+    s->next_tick = 0;
+  }
+  const bool coarse = CoarseTime(t0) || CoarseTime(t1);
+  const bool bounded = std::visit(
+      [&](const auto& unit) { return AdvanceWith(unit, s, t0, t1, theta1, command, coarse); },
+      config_.controller);
+  // A stored double that is not finite (a user's write, a corrupt file) makes the loop's clock
+  // resynchronise and its event bound end it, and the state it leaves is not finite: one check
+  // here, after the step, finds it (from a finite state no input that passed the checks above
+  // makes a value that is not finite, but the check costs little and makes it certain).
+  if (!Finite(*s)) {
+    Restart(s, t1, theta1, command, /*keep_energies=*/false);
+    return AdvanceStatus::kBadState;
+  }
+  if (!bounded) return AdvanceStatus::kEventBound;
+  return coarse ? AdvanceStatus::kCoarseTime : AdvanceStatus::kOk;
 }
 
 template <class C>
-void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1, double theta1,
-                        double command) const {
+bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1, double theta1,
+                        double command, bool coarse) const {
+  bool bounded = true;
   const MotorParams& motor = config_.motor;
   const double h = t1 - t0;                                  // s
   const double theta0 = s->theta;                            // rad
   const double omega = h > 0 ? (theta1 - theta0) / h : 0.0;  // rad/s, constant over the step
-  auto theta_at = [&](double t) { return theta0 + omega * (t - t0); };
+  // At time t from `origin` (0, or t0 at a coarse time; see the event loop).
+  double origin = 0;
+  auto theta_at = [&](double t) { return theta0 + omega * (t - (t0 - origin)); };
   const PhaseVector phasor1 = UnitPhasor(constants_.rotor_teeth * theta1);  // e^{jx} at t1
 
   // The command over the step: the profile's plan, or ctrl itself.
@@ -218,10 +316,10 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   const double theta_cmd0 = s->theta_cmd;
   const double omega_cmd =
       config_.input == InputMode::kVelocity ? command : (h > 0 ? (command - theta_cmd0) / h : 0.0);
-  auto command_at = [&](double t) -> CommandSample {
-    if (profiled) return config_.profile.Evaluate(plan, t);
+  auto command_at = [&](double t) -> CommandSample {  // t from `origin`
+    if (profiled) return config_.profile.Evaluate(plan, origin + t);
     if (config_.input == InputMode::kVelocity) {
-      return {.theta = theta_cmd0 + command * (t - t0), .omega = command};
+      return {.theta = theta_cmd0 + command * (t - (t0 - origin)), .omega = command};
     }
     return {.theta = command, .omega = omega_cmd};
   };
@@ -234,21 +332,41 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
     typename C::State unit = Unpack<typename C::State>(s->unit.data());
     const double period = config_.isr_period;  // T
     // Tick times and step times meant to coincide differ by round-off only: of the period, and of
-    // the simulation time's own accumulation (a few ulp of t).
-    const double eps = 1e-9 * period + 8 * std::numeric_limits<double>::epsilon() * std::abs(t1);
-    const double t_next = NextTickTime(*s);
-    if (t_next < t0 - eps || t_next > t0 + period + eps) {
+    // the simulation time's own accumulation (a few ulp of t). At a coarse time that round-off is
+    // capped at kCoarseTimeFraction·T, so that ticks are still told apart in the step's frame.
+    const double eps =
+        1e-9 * period + std::min(8 * std::numeric_limits<double>::epsilon() * std::abs(t1),
+                                 kCoarseTimeFraction * period);
+    // The step's times are taken from `origin`: 0 (absolute time, as the clock's grid) normally,
+    // t0 at a coarse time, where t + T would not be a different time but t − t0 + T is. Offsets
+    // from the anchor are added to anchor_time − origin, exact (Sterbenz) when the two are close.
+    origin = coarse ? t0 : 0.0;
+    const double start = t0 - origin;
+    const double t_next = (s->anchor_time - origin) + s->next_tick * period;
+    if (!(t_next >= start - eps && t_next <= start + period + eps)) {
       // Time jumped forward or was moved back under the drive: resynchronise its clock.
-      s->next_tick = s->anchor_tick = std::ceil((t0 - eps) / period);
-      s->anchor_time = s->next_tick * period;
+      AnchorAt(s, coarse ? t0 : t0 - eps, coarse);
       s->pending = 0;
-    } else if (std::abs(t_next - t0) <= eps) {  // the next tick is this step's start: anchor there
-      s->anchor_tick = s->next_tick;
+    } else if (std::abs(t_next - start) <=
+               eps) {                  // the next tick is the step's start: anchor there
+      s->anchor_tick += s->next_tick;  // exact below 2^53; only a label beyond (k_anchor below)
+      s->next_tick = 0;
       s->anchor_time = t0;
     }
+    const double anchor = s->anchor_time - origin;
+    const double end = t1 - origin;
+    // The pending voltage's apply time: stored absolute, or at a coarse time rebuilt from its
+    // tick, the one before next_tick (D < T, so it is always that one).
+    double apply_at =
+        coarse ? anchor + (s->next_tick - 1) * period + config_.compute_delay : s->apply_time;
+    double n = s->next_tick;  // ticks from the anchor: an integer in [0, kMaxTicksFromAnchor]
+    // k of the ticks, for the controllers (Sample::tick), from the anchor's label (below 2^53 in
+    // magnitude unless the stored state was made up).
+    const long k_anchor =
+        std::abs(s->anchor_tick) < 9007199254740992.0 ? static_cast<long>(s->anchor_tick) : 0;
     PhaseVector current = s->current();
     PhaseVector voltage = s->voltage();
-    double t = t0;
+    double t = start;
     // The rotor's electrical phasor e^{jx(t)}, carried from interval to interval by each kernel's
     // rotation e^{jΩh}; the last kernel is reused while intervals keep their length (to 1e-9).
     PhaseVector phasor = s->rotor_phasor();  // at θ0
@@ -297,37 +415,47 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
       s->current_ref_b = out.current_ref.imag();
     };
     constexpr double kNever = std::numeric_limits<double>::infinity();
+    // Every event moves t forward by at least eps or is the step's last, and n only grows: with
+    // h <= kMaxTicksPerAdvance·T (Advance) the loop ends well before its hard stop.
+    long events = 0;
     while (true) {
-      const double t_apply = s->pending ? s->apply_time : kNever;
-      const double t_tick = NextTickTime(*s);
+      const double t_apply = s->pending ? apply_at : kNever;
+      const double t_tick = anchor + n * period;  // t_k − origin
       const double t_event = std::min(t_apply, t_tick);
       // Events in [t0, t1 − eps] belong to this step; one within eps of t1 is the next step's, so
       // that a tick at a step boundary samples the command set for the step that starts there.
-      if (t_event > t1 - eps) {
-        integrate_to(t1);
+      if (t_event > end - eps) {
+        integrate_to(end);
         break;
       }
-      integrate_to(std::min(t_event, t1));
+      if (++events > kMaxEventsPerAdvance) {  // the hard stop: hold the voltage to the step's end
+        integrate_to(end);
+        bounded = false;
+        break;
+      }
+      integrate_to(std::min(t_event, end));
       if (t_apply <= t_tick) {  // S-15: v[k−1] reaches the phases at t_{k−1} + D, then is held
         voltage = {s->pending_a, s->pending_b};
         s->pending = 0;
       } else {  // interrupt k: sample, compute v[k]
-        tick(static_cast<long>(s->next_tick));  // an integer held in a double
-        s->apply_time = t_tick + config_.compute_delay;
-        s->next_tick += 1;
+        tick(k_anchor + static_cast<long>(n));
+        apply_at = t_tick + config_.compute_delay;
+        n += 1;
       }
     }
+    s->next_tick = n;
+    s->apply_time = origin + apply_at;
     s->current_a = current.real();
     s->current_b = current.imag();
     s->voltage_a = voltage.real();
     s->voltage_b = voltage.imag();
     Pack(unit, s->unit.data());
   }
-  const CommandSample end = command_at(t1);
+  const CommandSample at_end = command_at(t1 - origin);
   s->theta = theta1;
   s->set_rotor_phasor(phasor1);
-  s->theta_cmd = end.theta;
-  s->omega_cmd = profiled ? end.omega : omega_cmd;
+  s->theta_cmd = at_end.theta;
+  s->omega_cmd = profiled ? at_end.omega : omega_cmd;
   if (profiled) Pack(plan, s->unit.data() + layout_.controller);
   if constexpr (C::kCountsSlips) {  // open loop: a slip is a whole electrical cycle lost or won
     const double cell = SlipCell(constants_.rotor_teeth * (s->theta_cmd - theta1), s->slip_cell);
@@ -336,6 +464,7 @@ void Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
       s->last_slip_time = t1;
     }
   }
+  return bounded;
 }
 
 DecayKernel Drive::DecayFor(double length) const {
@@ -409,6 +538,12 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
 double Drive::RestCurrentMagnitude() const {
   DriveState s = Rest(0.0, 0.0, 0.0);
   return std::abs(s.current());
+}
+
+double Drive::DetentStiffness() const {
+  double sum = 0;  // Σh h·Kdh, N·m
+  for (const DetentHarmonic& h : config_.motor.detent) sum += h.order * std::abs(h.amplitude);
+  return constants_.rotor_teeth * sum;
 }
 
 double Drive::HoldingStiffness() const {

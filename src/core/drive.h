@@ -9,10 +9,17 @@
 //   t_k + D   v[k] reaches the phases and is held until t_{k+1} + D               S-15
 // With Tsui's timing (T = 50 µs, D = 25 µs) this is the paper's 37.5-82.5 µs delay window.
 // The clock starts on the grid k·T and is re-anchored to a step's start time t0 whenever its next
-// tick falls on t0 up to round-off: t_k = t_{k_a} + (k − k_a)·T from the last anchor k_a. So when
-// the step is a multiple or a fraction of T, ticks stay on step boundaries bit for bit however
-// long the run (MuJoCo's accumulated time drifts from n·h by 5 µs over an hour at 20 kHz), and the
-// clock never accumulates round-off of its own.
+// tick falls on t0 up to round-off: t_k = t_{k_a} + n·T, n = k − k_a ticks after the last anchor
+// k_a. So when the step is a multiple or a fraction of T, ticks stay on step boundaries bit for
+// bit however long the run (MuJoCo's accumulated time drifts from n·h by 5 µs over an hour at
+// 20 kHz), and the clock never accumulates round-off of its own.
+//
+// Bounded by construction (issue 16): the clock counts n, a small integer (the clock re-anchors
+// before it passes kMaxTicksFromAnchor), never the absolute k, which stops growing under `+= 1`
+// past 2^53; one Advance runs at most kMaxEventsPerAdvance events whatever its input; and a time
+// whose round-off is not small against T (see AdvanceStatus::kCoarseTime) is worked in the step's
+// own frame, t − t0, where T still resolves. What was wrong with an input is returned as an
+// AdvanceStatus, and the state is finite after every Advance.
 //
 // A caller moves the drive from t0 to t1 (one simulation step, any length: several ticks per step
 // or several steps per tick) with the rotor angle moving linearly from its value at t0 to θ1 and
@@ -86,6 +93,45 @@ bool InterruptsFit(double timestep, double isr_period);
 /// value messages print, accepted when a user copies it back.
 double LeastIsrPeriod(double timestep);
 
+/// One Advance runs at most this many interrupts: a timestep raised after loading (which refuses
+/// more than kMaxInterruptsPerStep) still runs all of its interrupts up to ten times the load's
+/// bound; a longer step (an absurd timestep, a jump in time) is not run (AdvanceStatus).
+inline constexpr double kMaxTicksPerAdvance = 10.0 * kMaxInterruptsPerStep;
+
+/// The hard stop of one Advance's event loop: each interrupt is two events (its tick, then its
+/// voltage's apply at t_k + D), plus one pending apply and round-off at the step's two ends.
+inline constexpr long kMaxEventsPerAdvance = 2 * static_cast<long>(kMaxTicksPerAdvance) + 8;
+
+/// The clock re-anchors at its next tick once that many ticks passed since its anchor (2^32: at
+/// 20 kHz, 2.5 days of steps that never start on a tick), so that n·T is exact arithmetic on a
+/// small integer however long the run.
+inline constexpr double kMaxTicksFromAnchor = 4294967296.0;
+
+/// A time t is too coarse for the clock when its round-off, 8·ε·|t| (a few ulp: MuJoCo's
+/// accumulated time and the tick times built on it), passes this fraction of isr_period: the ticks
+/// could then not be told from step boundaries 1 % of a period away. At 20 kHz that is |t| beyond
+/// 2.8e8 s (9 years); at 10 MHz beyond 5.6e5 s (6.5 days); a Unix time (1.7e9 s) for any T below
+/// 0.3 ms.
+inline constexpr double kCoarseTimeFraction = 0.01;
+
+/// What Advance found wrong with its input, if anything; a simulator reports it (the plugin
+/// through mju_warning). Whatever the input, Advance returns after a bounded amount of work and
+/// leaves the state finite.
+enum class AdvanceStatus {
+  kOk,
+  kBadTime,     ///< t0 or t1 not finite, or t1 < t0: the state is left unchanged
+  kBadInput,    ///< θ1 or the command not finite, or beyond kMaxCommand: state left unchanged
+  kBadState,    ///< a stored double was not finite: the drive restarted at rest at t1
+  kEventBound,  ///< the step needs more than kMaxTicksPerAdvance interrupts: the drive restarted
+                ///< at rest at t1 (energies kept); or the loop hit its hard stop,
+                ///< kMaxEventsPerAdvance, and held the voltage to t1
+  kCoarseTime,  ///< 8·ε·|t| > kCoarseTimeFraction·T: the step was run in its own frame t − t0,
+                ///< every tick placed, but on step times that are themselves this coarse
+};
+
+/// A sentence on the status, for messages: "" for kOk.
+const char* Describe(AdvanceStatus status);
+
 /// The largest |ctrl| that is a command (MuJoCo's mjMAXVAL, mju_isBad's bound; the plugin checks
 /// they agree): beyond it, or not finite, a ctrl is no command.
 inline constexpr double kMaxCommand = 1e10;
@@ -111,9 +157,10 @@ struct DriveCoreState {
   double pending_b = 0;          ///< V
   double pending = 0;            ///< 1 while pending_a/b wait for their apply time
   double apply_time = 0;         ///< s, when pending_a/b reach the phases: t_k + D (S-15)
-  double next_tick = 0;          ///< k of the next interrupt
-  double anchor_tick = 0;        ///< an interrupt k_a whose time is known exactly:
-  double anchor_time = 0;        ///< t_{k_a}, s; t_k = t_{k_a} + (k − k_a)·T
+  double next_tick = 0;          ///< n of the next interrupt, counted from the anchor (k − k_a)
+  double anchor_tick = 0;        ///< an interrupt k_a whose time is known exactly (k_a labels
+                                 ///< the ticks for the controllers, Sample::tick):
+  double anchor_time = 0;        ///< t_{k_a}, s; t_k = t_{k_a} + n·T
   double theta_meas = 0;         ///< rad, encoder angle at the last tick (S-16)
   double omega_est = 0;          ///< rad/s, velocity estimate at the last tick (S-17)
   double current_ref_a = 0;      ///< A, the controller's current reference at the last tick
@@ -193,7 +240,9 @@ class Drive {
 
   /// Moves `state` from t0 to t1 >= t0. The rotor moves linearly from state->theta to theta1; the
   /// command (rad or rad/s, by input mode; the target angle with a profile) is held over the step.
-  void Advance(DriveState* state, double t0, double t1, double theta1, double command) const;
+  /// Bounded for any input (at most kMaxEventsPerAdvance events); what was wrong is returned.
+  AdvanceStatus Advance(DriveState* state, double t0, double t1, double theta1,
+                        double command) const;
 
   /// `ctrl` (rad or rad/s, by input mode) as the drive's command. A ctrl that is NaN, infinite or
   /// beyond kMaxCommand is no command: a started drive (`state`) keeps doing what it does, at its
@@ -211,8 +260,13 @@ class Drive {
 
   /// Time of the next interrupt, s.
   double NextTickTime(const DriveCoreState& s) const {
-    return s.anchor_time + (s.next_tick - s.anchor_tick) * config_.isr_period;
+    return s.anchor_time + s.next_tick * config_.isr_period;
   }
+  /// Index k of the next interrupt (exact while k < 2^53).
+  static double NextTickIndex(const DriveCoreState& s) { return s.anchor_tick + s.next_tick; }
+
+  /// Whether time t is too coarse for this drive's clock (kCoarseTimeFraction).
+  bool CoarseTime(double t) const;
 
   /// The state from / to layout().total() doubles (a simulator's state array).
   DriveState Load(const double* values) const;
@@ -231,10 +285,28 @@ class Drive {
   /// 0 in identification mode.
   double HoldingStiffness() const;
 
+  /// The detent's largest stiffness, N·m/rad: |dτdet/dθ| <= Σh h·Nr·Kdh (S-5), reached where the
+  /// harmonics' slopes line up. It adds to T' where both peak together, so the timestep checks
+  /// (LargestTimestep) take T' + this as the worst case; 0 without a detent.
+  double DetentStiffness() const;
+
  private:
+  // The step itself, on checked input; false if it hit kMaxEventsPerAdvance. `coarse`: work in
+  // the step's frame t − t0 (CoarseTime), else in absolute time.
   template <class C>
-  void AdvanceWith(const C& controller, DriveState* s, double t0, double t1, double theta1,
-                   double command) const;
+  bool AdvanceWith(const C& controller, DriveState* s, double t0, double t1, double theta1,
+                   double command, bool coarse) const;
+
+  // Sets the clock's anchor at the first tick of the grid k·T at or after `time`, or at `time`
+  // itself when the grid is not representable there (coarse); n = 0.
+  void AnchorAt(DriveCoreState* s, double time, bool coarse) const;
+
+  // Restarts the drive at rest at `time` on the rotor at θ (rad) holding `command`; the energy
+  // integrals kept if asked. Off the normal path (a bad state, a step too long to run).
+  void Restart(DriveState* s, double time, double theta, double command, bool keep_energies) const;
+
+  // Whether every stored double of the state is finite.
+  bool Finite(const DriveState& s) const;
 
   // e^{jNr·θ}: the stored one when θ is the state's, else by sincos.
   PhaseVector RotorPhasor(bool started, double stored_theta, PhaseVector stored_phasor,

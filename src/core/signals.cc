@@ -25,7 +25,10 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
       {"omega_cmd", "rad/s", "commanded rotor speed", &S::omega_cmd},
       {"torque_em", "N·m", "electromagnetic torque τm (S-4)", &S::torque_em},
       {"torque_detent", "N·m", "detent torque τdet (S-5)", &S::torque_detent},
-      {"torque_total", "N·m", "τm + τdet, the torque on the rotor (actuator force)",
+      {"torque_total", "N·m",
+       "τm + τdet, the torque the motor makes on its rotor: the actuator force before MuJoCo's "
+       "forcerange clamp (with forcelimited, `actuator_force` is this clipped to forcerange, and "
+       "the joint gets the clipped one)",
        &S::torque_total},
       {"load_angle", "rad (electrical)", "δ = Nr·(θcmd − θ) (S-12)", &S::load_angle},
       {"position_error", "rad", "θ − θcmd (rotor side): the tracking error, e1 of K(20)",
@@ -37,10 +40,16 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
        &S::lost_steps},
       {"last_slip_time", "s", "end of the step in which the last slip was counted; −1: none yet",
        &S::last_slip_time},
-      {"energy_input", "J", "∫(va·ia + vb·ib) dt since the start; S-8 holds between the three energies; 0 under `ideal_current`, which has no windings", &S::energy_input},
+      {"energy_input", "J",
+       "∫(va·ia + vb·ib) dt since the start; S-8 holds between the three energies; 0 under "
+       "`ideal_current`, which has no windings",
+       &S::energy_input},
       {"energy_copper", "J", "∫R·(ia² + ib²) dt", &S::energy_copper},
       {"energy_mechanical", "J", "∫τm·ω dt", &S::energy_mechanical},
-      {"theta_meas", "rad", "encoder angle at the last interrupt (S-16); `ideal_current` has no interrupts and keeps its start value", &S::theta_meas},
+      {"theta_meas", "rad",
+       "encoder angle at the last interrupt (S-16); `ideal_current` has no interrupts and keeps "
+       "its start value",
+       &S::theta_meas},
       {"omega_est", "rad/s", "velocity estimate at the last interrupt (S-17)", &S::omega_est},
   }};
   return table;

@@ -58,17 +58,18 @@ int Info(const std::string& path) {
       continue;
     }
     fmt::print(
-        "    largest timestep that resolves it: {:.3g} s (ωn·h <= {}); the model's: {:g} s\n",
-        r.largest_timestep, kMaxOmegaTimesStep, h);
+        "    largest timestep that resolves it: {:.3g} s (ωn·h <= {}, with the detent's worst-case "
+        "stiffness Σ h·Nr·Kdh = {:.4g} N·m/rad added to T'); the model's: {:g} s\n",
+        r.largest_timestep, kMaxOmegaTimesStep, r.detent_stiffness, h);
     for (const DetentHarmonic& dh : p.detent) {
       fmt::print("    detent h = {}: resonance at {:.1f} r/min (h·Nr·n/60 = fn)\n", dh.order,
                  60.0 * fn / (dh.order * p.rotor_teeth));
     }
-    if (omega_n * h > kMaxOmegaTimesStep) {
+    if (h > r.largest_timestep) {
       fmt::print(
-          "    warning: timestep {:g} s is too coarse for this stepper: ωn·h = {:.3f} > {}; use "
-          "timestep <= {:.3g} s\n",
-          h, omega_n * h, kMaxOmegaTimesStep, kMaxOmegaTimesStep / omega_n);
+          "    warning: timestep {:g} s is too coarse for this stepper: ωn·h = {:.3f} > {} (T' and "
+          "the detent); use timestep <= {:.3g} s\n",
+          h, kMaxOmegaTimesStep * h / r.largest_timestep, kMaxOmegaTimesStep, r.largest_timestep);
     }
   }
   const double highest = HighestMode(m, sm.steppers);  // rad/s

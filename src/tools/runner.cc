@@ -31,10 +31,13 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     if (m->opt.timestep > r.largest_timestep && !options.allow_coarse) {
       throw std::invalid_argument(fmt::format(
           "{}: timestep {:g} s is too coarse for stepper '{}': ωn = {:.4g} rad/s with the inertia "
-          "it moves (J = {:.4g} kg·m², T' = {:.4g} N·m/rad), ωn·h = {:.3g} > {}, so its resonance "
-          "and steps would be wrong; use timestep <= {:.3g} s, or pass --allow-coarse",
-          options.model, m->opt.timestep, s.name, r.omega_n, r.inertia, r.stiffness,
-          r.omega_n * m->opt.timestep, kMaxOmegaTimesStep, r.largest_timestep));
+          "it moves (J = {:.4g} kg·m², T' = {:.4g} N·m/rad, the detent's worst case {:.4g} "
+          "N·m/rad), ωn·h = {:.3g} > {}, so its resonance and steps would be wrong; use timestep "
+          "<= {:.3g} s, or pass --allow-coarse",
+          options.model, m->opt.timestep, s.name, kMaxOmegaTimesStep / r.largest_timestep,
+          r.inertia, r.stiffness, r.detent_stiffness,
+          kMaxOmegaTimesStep * m->opt.timestep / r.largest_timestep, kMaxOmegaTimesStep,
+          r.largest_timestep));
     }
   }
   if (const double highest = HighestMode(m, sm.steppers);

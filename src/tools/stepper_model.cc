@@ -219,10 +219,12 @@ void SetBodyMass(mjModel* m, const std::string& name, double mass) {
 
 StepperResolution Resolution(const mjModel* m, const StepperActuator& s) {
   StepperResolution r;
-  r.stiffness = Drive(s.config).HoldingStiffness();
+  const Drive drive(s.config);
+  r.stiffness = drive.HoldingStiffness();
+  r.detent_stiffness = drive.DetentStiffness();
   r.inertia = ReflectedInertia(m, s.actuator);
   r.omega_n = std::sqrt(r.stiffness / r.inertia);
-  r.largest_timestep = LargestTimestep(r.stiffness, r.inertia);
+  r.largest_timestep = LargestTimestep(r.stiffness + r.detent_stiffness, r.inertia);
   return r;
 }
 

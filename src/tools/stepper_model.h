@@ -72,9 +72,12 @@ void SetBodyMass(mjModel* m, const std::string& name, double mass);
 /// What a stepper's holding resonance asks of the timestep, with the inertia it actually moves.
 struct StepperResolution {
   double stiffness = 0;         ///< T', N·m/rad (Drive::HoldingStiffness)
+  double detent_stiffness = 0;  ///< Σh h·Nr·Kdh, N·m/rad: the detent's worst case
   double inertia = 0;           ///< rotor-side, kg·m² (ReflectedInertia)
-  double omega_n = 0;           ///< √(T'/J), rad/s
-  double largest_timestep = 0;  ///< s, kMaxOmegaTimesStep/ωn (infinite without stiffness)
+  double omega_n = 0;           ///< √(T'/J), rad/s: the holding resonance (T(1))
+  /// s, kMaxOmegaTimesStep·√(J/(T' + detent_stiffness)): the detent's stiffness adds to T' where
+  /// both peak (infinite without stiffness)
+  double largest_timestep = 0;
 };
 StepperResolution Resolution(const mjModel* m, const StepperActuator& s);
 

@@ -179,11 +179,11 @@ TEST(Drive, ClockStaysOnAccumulatedStepTimes) {
       drive.Advance(&s, t, t1, omega * t1, omega);
       t = t1;
     }
-    EXPECT_EQ(s.next_tick, steps * ticks_per_step);
+    EXPECT_EQ(Drive::NextTickIndex(s), steps * ticks_per_step);
     EXPECT_NEAR(drive.NextTickTime(s), t, 4 * std::numeric_limits<double>::epsilon() * t);
     if (ticks_per_step == 1) {
       EXPECT_EQ(drive.NextTickTime(s), t);         // bit for bit
-      EXPECT_GT(std::abs(s.next_tick * h - t), 1e-12);  // while k·T has drifted
+      EXPECT_GT(std::abs(Drive::NextTickIndex(s) * h - t), 1e-12);  // while k·T has drifted
     }
   }
 }
@@ -195,10 +195,85 @@ TEST(Drive, ClockResynchronisesWhenTimeMovesBack) {
   const double h = drive.config().isr_period;
   DriveState s = drive.Rest(0.0, 0.0, 0.0);
   for (int k = 0; k < 200; ++k) drive.Advance(&s, k * h, (k + 1) * h, 0.0, 0.0);
-  ASSERT_EQ(s.next_tick, 200);
+  ASSERT_EQ(Drive::NextTickIndex(s), 200);
   drive.Advance(&s, 0.0, h, 0.0, 0.0);
-  EXPECT_EQ(s.next_tick, 1);  // the tick at t = 0 ran; the next is at h
+  EXPECT_EQ(Drive::NextTickIndex(s), 1);  // the tick at t = 0 ran; the next is at h
   EXPECT_EQ(drive.NextTickTime(s), h);
+}
+
+// Issue 16: at t = 1e13 s a 20 kHz clock's tick index is past 2^53 (k + 1 == k: the event loop
+// never ended) and times are 2^-9 s ≈ 2 ms apart, 39 periods. The drive now counts ticks from its
+// anchor and works such a step in its own frame t − t0: over 0.1 s of steps 2^-9 s long (the
+// spacing of times there, so every step time is exact), its currents and tick count equal those
+// of the same run at t = 0. Tolerance 1e-12 A (they agree to 6e-15 A): both runs place the same
+// ticks (offsets n·T from the same anchor; none within 1 % of T of a step boundary without being on
+// it, as offsets fall on sixteenths of T) and differ only by the round-off of offsets taken from
+// different origins, ~1e-19 s, and of the currents' arithmetic; one tick misplaced by the 2 ms
+// spacing of absolute times, or a stalled clock, would miss it by ~0.1 A. Each Advance says the
+// time is coarse.
+TEST(Drive, TicksCorrectlyAtAHugeTime) {
+  const Drive drive(TsuiConfig(kCurrent, InputMode::kVelocity));
+  const double h = std::ldexp(1.0, -9);  // s: ulp(1e13)
+  const double omega = RpmToRadPerSec(60);
+  ASSERT_EQ(1e13 + h - 1e13, h);
+  std::vector<PhaseVector> currents[2];
+  double ticks[2] = {0, 0};
+  for (int run = 0; run < 2; ++run) {
+    const double start = run == 0 ? 0.0 : 1e13;
+    DriveState s = drive.Rest(start, 0.0, omega);
+    const double k0 = Drive::NextTickIndex(s);
+    for (int k = 0; k < 51; ++k) {
+      const double t0 = start + k * h, t1 = start + (k + 1) * h;
+      const AdvanceStatus status = drive.Advance(&s, t0, t1, omega * (k + 1) * h, omega);
+      EXPECT_EQ(status, run == 0 ? AdvanceStatus::kOk : AdvanceStatus::kCoarseTime) << k;
+      currents[run].push_back(s.current());
+    }
+    ticks[run] = Drive::NextTickIndex(s) - k0;
+  }
+  EXPECT_EQ(ticks[0], 1993);  // ticks at 0, T, ..., 1992·T < 51·h = 1992.2·T
+  EXPECT_EQ(ticks[1], ticks[0]);
+  for (size_t i = 0; i < currents[0].size(); ++i) {
+    EXPECT_NEAR(std::abs(currents[1][i] - currents[0][i]), 0.0, 1e-12) << "step " << i;
+  }
+}
+
+// Issue 16: whatever the input, Advance returns, says what was wrong, and leaves the state finite:
+// unchanged for a bad time or input, restarted at rest for a stored NaN or a step too long to run.
+TEST(Drive, BadInputIsReportedAndStateStaysFinite) {
+  const Drive drive(TsuiConfig(kCurrent, InputMode::kVelocity));
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  const double h = 50e-6;
+  DriveState s = drive.Rest(0.0, 0.0, 1.0);
+  for (int k = 0; k < 10; ++k) drive.Advance(&s, k * h, (k + 1) * h, 0.0, 1.0);
+  const DriveState good = s;
+  auto same = [&](const DriveState& a) {
+    return std::memcmp(static_cast<const void*>(&a), static_cast<const void*>(&good),
+                       sizeof(DriveCoreState)) == 0;
+  };
+  for (auto [t0, t1] : {std::pair{nan, 1.0}, {0.0, nan}, {-inf, 0.0}, {0.0, inf}, {1.0, 0.5}}) {
+    EXPECT_EQ(drive.Advance(&s, t0, t1, 0.0, 1.0), AdvanceStatus::kBadTime) << t0 << " " << t1;
+    EXPECT_TRUE(same(s));
+  }
+  for (auto [theta1, command] : {std::pair{nan, 1.0}, {0.0, inf}, {1e11, 1.0}, {0.0, -1e300}}) {
+    EXPECT_EQ(drive.Advance(&s, 10 * h, 11 * h, theta1, command), AdvanceStatus::kBadInput);
+    EXPECT_TRUE(same(s));
+  }
+  // A NaN in the stored state (a user's write, a corrupt file): restarted at rest.
+  s.current_a = nan;
+  EXPECT_EQ(drive.Advance(&s, 10 * h, 11 * h, 0.0, 1.0), AdvanceStatus::kBadState);
+  EXPECT_TRUE(std::isfinite(s.current_a));
+  // A step of 1e300 s, or of more than kMaxTicksPerAdvance periods: not run, restarted at rest.
+  s = good;
+  EXPECT_EQ(drive.Advance(&s, 10 * h, 1e300, 0.0, 1.0), AdvanceStatus::kEventBound);
+  EXPECT_EQ(s.energy_input, good.energy_input);  // kept
+  EXPECT_NEAR(drive.NextTickTime(s), 1e300, 1e284);
+  s = good;
+  EXPECT_EQ(drive.Advance(&s, 10 * h, (10 + kMaxTicksPerAdvance + 1) * h, 0.0, 1.0),
+            AdvanceStatus::kEventBound);
+  s = good;
+  EXPECT_EQ(drive.Advance(&s, 10 * h, (10 + kMaxTicksPerAdvance - 1) * h, 0.0, 1.0),
+            AdvanceStatus::kOk);
 }
 
 // S-13: each phase is clamped to ±Vbus, and the PI integrator holds while the bridges saturate

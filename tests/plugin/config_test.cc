@@ -37,6 +37,21 @@ TEST(Config, StrictNumbers) {
   }
 }
 
+// Issue 16: a leading '+' is skipped for from_chars, which then read "+-1" as −1 (a detent phase
+// of "+-1" loaded as −1 rad). One sign only: "+-1", "++1" and a lone "+" are no numbers, in a
+// single value and in a detent triplet alike.
+TEST(Config, OneSignOnly) {
+  double v = 0;
+  EXPECT_TRUE(ParseFiniteDouble("-1", &v));
+  EXPECT_EQ(v, -1.0);
+  for (const char* bad : {"+-1", "++1", "+", " + 1", "+ 1"}) {
+    EXPECT_FALSE(ParseFiniteDouble(bad, &v)) << bad;
+  }
+  const auto parsed = ParseMap({{"detent", "4 0.006 +-1"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(parsed));
+  EXPECT_THAT(std::get<std::string>(parsed), AllOf(HasSubstr("detent"), HasSubstr("+-1")));
+}
+
 TEST(Config, DefaultsAreTsuiCurrentMicrostepping) {
   const auto parsed = ParseMap({});
   ASSERT_TRUE(std::holds_alternative<DriveConfig>(parsed));

@@ -4,7 +4,13 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <future>
+#include <limits>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -91,9 +97,11 @@ TEST(StepperPlugin, WorksUnderEveryIntegrator) {
     Step(m.get(), d.get(), 2000);
     EXPECT_NEAR((d->qpos[0] - q0) / 0.1, RpmToRadPerSec(100), 0.005 * RpmToRadPerSec(100))
         << integrator;
-    // One interrupt per 50 µs whatever the integrator: 6000 steps, 6000 ticks (next_tick counts).
-    EXPECT_EQ(d->plugin_state[offsetof(DriveCoreState, next_tick) / sizeof(double)], 6000)
-        << integrator;
+    // One interrupt per 50 µs whatever the integrator: 6000 steps, 6000 ticks (the index of the
+    // next one, its anchor's plus those after it, counts them).
+    DriveCoreState core;
+    std::memcpy(static_cast<void*>(&core), d->plugin_state, sizeof(core));
+    EXPECT_EQ(Drive::NextTickIndex(core), 6000) << integrator;
   }
 }
 
@@ -437,6 +445,66 @@ TEST(StepperPlugin, ZeroGearFailsLoad) {
   EXPECT_THAT(error, AllOf(HasSubstr("actuator 'm1'"), HasSubstr("gear = 0")));
 }
 
+// Issue 16: gear="1e-300" loaded, and the rotor angle gear·q underflowed to 0. |gear| is bounded
+// to [1e-6, 1e6]; a load error names the gear and the range, and the ends themselves load.
+TEST(StepperPlugin, GearOutOfRangeFailsLoad) {
+  const auto actuator = [](const std::string& gear) {
+    return R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" gear=")" + gear +
+           R"(" armature="0.36e-4">)" + Config("input", "velocity") + "</plugin>";
+  };
+  for (const char* gear : {"1e-300", "9.9e-7", "-1.01e6", "1e300"}) {
+    std::string error;
+    EXPECT_FALSE(LoadModel(RotorModel(actuator(gear)), &error)) << gear;
+    EXPECT_THAT(error, AllOf(HasSubstr("actuator 'm1'"),
+                             HasSubstr(fmt::format("gear = {:g}", std::stod(gear))),
+                             HasSubstr("|gear| must be between 1e-06 and 1e+06")));
+  }
+  for (const char* gear : {"1e-6", "-1e6"}) {
+    std::string error;
+    EXPECT_TRUE(LoadModel(RotorModel(actuator(gear)), &error)) << gear << ": " << error;
+  }
+}
+
+// Issue 16: a timestep of NaN or inf in the MJCF was refused with "use isr_period >= nan", blaming
+// the drive. The message now names the timestep.
+TEST(StepperPlugin, NonFiniteTimestepFailsLoadNamingIt) {
+  for (double timestep :
+       {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    std::string error;
+    EXPECT_FALSE(LoadModel(RotorModel(TsuiActuator("m1", "j1", ""), "", "", 1, timestep), &error));
+    EXPECT_THAT(error, AllOf(HasSubstr("actuator 'm1'"),
+                             HasSubstr(fmt::format("timestep = {:g} s", timestep)),
+                             HasSubstr("must be finite and > 0")));
+    EXPECT_THAT(error, ::testing::Not(HasSubstr("isr_period")));
+  }
+}
+
+// The warnings mju_warning sends while it lives (restoring the previous handler after).
+class CapturedWarnings {
+ public:
+  CapturedWarnings() : previous_(mju_user_warning) {
+    Messages().clear();
+    mju_user_warning = +[](const char* message) { Messages().emplace_back(message); };
+  }
+  ~CapturedWarnings() { mju_user_warning = previous_; }
+  const std::vector<std::string>& messages() const { return Messages(); }
+  // The plugin's own (MuJoCo's warnings, e.g. on a NaN qpos, are not counted).
+  std::vector<std::string> ours() const {
+    std::vector<std::string> out;
+    for (const std::string& m : Messages()) {
+      if (m.starts_with("mjstepper: ")) out.push_back(m);
+    }
+    return out;
+  }
+
+ private:
+  static std::vector<std::string>& Messages() {
+    static std::vector<std::string> messages;
+    return messages;
+  }
+  void (*previous_)(const char*);
+};
+
 std::vector<std::string>* captured_warnings = nullptr;
 
 // At a step too coarse for the rotor alone, loading warns through mju_warning, naming the step
@@ -458,8 +526,27 @@ TEST(StepperPlugin, CoarseTimestepWarnsAtLoad) {
   ASSERT_GT(count[1], 0u);
   for (const std::string& w : warnings) {
     EXPECT_THAT(w, AllOf(HasSubstr("actuator 'm1'"), HasSubstr("timestep 0.001 s"),
-                         HasSubstr("use timestep <= 0.000225 s")));
+                         HasSubstr("use timestep <= 0.000213 s")));
   }
+}
+
+// Issue 16: a detent of 1e12 N·m (harmonic 4) holds the rotor far more stiffly than the drive does,
+// and loaded without a word while MuJoCo then reset every step. The timestep check now adds the
+// detent's worst-case stiffness Σh h·Nr·Kdh = 4·50·1e12 N·m/rad to T' = 28.5 N·m/rad: at J =
+// 3.6e-5 kg·m², ωn = 2.36e9 rad/s and the largest step 0.2/ωn = 8.49e-11 s. The shipped detent
+// (Σ = 3.15 N·m/rad) stays silent at 50 µs.
+TEST(StepperPlugin, StiffDetentWarnsAtLoad) {
+  CapturedWarnings warnings;
+  const ModelPtr m = LoadModel(RotorModel(
+      TsuiActuator("m1", "j1", Config("input", "velocity") + Config("detent", "4 1e12 0"))));
+  ASSERT_TRUE(m);
+  ASSERT_FALSE(warnings.ours().empty());
+  EXPECT_THAT(warnings.ours()[0],
+              AllOf(HasSubstr("actuator 'm1'"), HasSubstr("timestep 5e-05 s is too coarse"),
+                    HasSubstr("use timestep <= 8.49e-11 s")));
+  const size_t before = warnings.ours().size();
+  ASSERT_TRUE(LoadModel(RotorModel(TsuiActuator("m1", "j1", Config("input", "velocity")))));
+  EXPECT_EQ(warnings.ours().size(), before);
 }
 
 // The load-angle gauge (visualize callback): two arrows per stepper in the scene, the rotor's at
@@ -599,6 +686,108 @@ TEST(StepperPlugin, TimestepRaisedAfterLoadingIsReportedOnce) {
                                  HasSubstr("isr_period >= 2e-06")));
 }
 
+// Runs `steps` of mj_step on another thread and waits at most `seconds` for them; a step that
+// never returns (issue 16: the drive's event loop once stalled on NaN or huge times) fails the
+// test and ends the process, which could not otherwise stop the thread.
+void StepsReturnWithin(const mjModel* m, mjData* d, int steps, double seconds) {
+  std::packaged_task<void()> task([m, d, steps] {
+    for (int k = 0; k < steps; ++k) mj_step(m, d);
+  });
+  std::future<void> done = task.get_future();
+  std::thread thread(std::move(task));
+  if (done.wait_for(std::chrono::duration<double>(seconds)) != std::future_status::ready) {
+    ADD_FAILURE() << steps << " steps did not return within " << seconds << " s";
+    std::fprintf(stderr, "mj_step never returned: ending the test process\n");
+    std::_Exit(1);
+  }
+  thread.join();
+}
+
+bool AllFinite(const mjModel* m, const mjData* d) {
+  for (int i = 0; i < m->npluginstate; ++i) {
+    if (!std::isfinite(d->plugin_state[i])) return false;
+  }
+  for (int i = 0; i < m->nu; ++i) {
+    if (!std::isfinite(d->actuator_force[i])) return false;
+  }
+  return true;
+}
+
+std::string ShippedModel(const std::string& name) {
+  std::ifstream file(std::string(MJSTEPPER_SOURCE_DIR "/models/") + name);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+// Issue 16's first reproduction: a keyframe at time NaN (the CLI's --keyframe nan). The event loop
+// waited for a tick time above NaN for ever; now each step returns at once, the drive held, and
+// one warning names the actuator, the time and the cause.
+TEST(StepperPlugin, NanTimeFromAKeyframeReturnsAndWarnsOnce) {
+  std::string xml = ShippedModel("tsui_rigid.xml");
+  xml.replace(xml.rfind("</mujoco>"), 9,
+              R"(<keyframe><key name="nan" time="nan" qpos="0"/></keyframe></mujoco>)");
+  const ModelPtr m = LoadModel(xml);
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  mj_resetDataKeyframe(m.get(), d.get(), 0);
+  d->ctrl[0] = 10;
+  CapturedWarnings warnings;
+  StepsReturnWithin(m.get(), d.get(), 100, 10.0);
+  ASSERT_EQ(warnings.ours().size(), 1u);
+  EXPECT_THAT(warnings.ours()[0], AllOf(HasSubstr("actuator 'shaft' (id 0) at time nan s"),
+                                        HasSubstr("the step's time is not finite")));
+  EXPECT_TRUE(AllFinite(m.get(), d.get()));
+}
+
+// Issue 16: a 10 MHz drive at a Unix time (1.7e9 s, where times are 2.4e-7 s apart, coarser than
+// the 1e-7 s period: t + T was t) and the default 20 kHz drive at 1e13 s (tick indices past 2^53,
+// where k + 1 was k). Both stalled; now the steps return, the drive's state stays finite, and one
+// warning says the time is too coarse for the clock.
+TEST(StepperPlugin, HugeTimesReturnAndWarnOnce) {
+  struct Case {
+    std::string configs;
+    double time;  // s
+  };
+  for (const Case& c :
+       {Case{Config("isr_period", "1e-7") + Config("compute_delay", "0"), 1.7e9}, Case{"", 1e13}}) {
+    const ModelPtr m = LoadModel(RotorModel(TsuiActuator("shaft", "j1", c.configs)));
+    ASSERT_TRUE(m);
+    const DataPtr d(mj_makeData(m.get()));
+    d->time = c.time;
+    d->ctrl[0] = 0.5;  // rad
+    CapturedWarnings warnings;
+    StepsReturnWithin(m.get(), d.get(), 200, 10.0);
+    ASSERT_EQ(warnings.ours().size(), 1u) << c.time;
+    EXPECT_THAT(warnings.ours()[0], AllOf(HasSubstr("actuator 'shaft' (id 0) at time "),
+                                          HasSubstr(fmt::format("{:g} s", c.time)),
+                                          HasSubstr("round-off is not small against isr_period")));
+    EXPECT_TRUE(AllFinite(m.get(), d.get())) << c.time;
+  }
+}
+
+// Issue 16: a timestep set after loading to NaN, ±inf, a negative value or 0 (the compiler refuses
+// them all): each step returns, the drive is held, one warning names the timestep.
+TEST(StepperPlugin, BadTimestepAfterLoadingReturnsAndWarnsOnce) {
+  const double kInf = std::numeric_limits<double>::infinity();
+  for (double timestep : {std::numeric_limits<double>::quiet_NaN(), kInf, -kInf, -1e-3, 0.0}) {
+    const ModelPtr m = LoadModel(RotorModel(TsuiActuator("shaft", "j1", "")));
+    ASSERT_TRUE(m);
+    const DataPtr d(mj_makeData(m.get()));
+    d->ctrl[0] = 0.5;                               // rad
+    StepsReturnWithin(m.get(), d.get(), 10, 10.0);  // started
+    m->opt.timestep = timestep;
+    CapturedWarnings warnings;
+    StepsReturnWithin(m.get(), d.get(), 100, 10.0);
+    ASSERT_EQ(warnings.ours().size(), 1u) << timestep;
+    EXPECT_THAT(warnings.ours()[0],
+                AllOf(HasSubstr("actuator 'shaft' (id 0) at time "),
+                      HasSubstr(fmt::format("timestep = {:g} s is not a positive finite number",
+                                            timestep))));
+    EXPECT_TRUE(AllFinite(m.get(), d.get())) << timestep;
+  }
+}
+
 // When an instance's init fails, MuJoCo's mj_initPlugin (used by mj_copyData and the compiler's
 // MakeData) frees mjData without destroying the instances made before it, and LeakSanitizer found
 // the earlier Stepper lost. (4.0.0's mj_makeData destroys them itself; the others do not.) So
@@ -618,6 +807,73 @@ TEST(StepperPlugin, ABadLaterInstanceLeaksNoEarlierOne) {
   EXPECT_EQ(plugin->init(m.get(), d.get(), 0), -1);
   EXPECT_EQ(plugin::Stepper::LiveCount(), live);
   EXPECT_EQ(d->plugin_data[0], made);  // untouched, and destroyed with d
+}
+
+// Issue 16: with two bad steppers, the first instance checked the later one first and returned,
+// so the later one's error was reported and the first one's hidden. Errors now come in model
+// order, all of them: the first actuator's, then the second's; with only the first bad, its own.
+TEST(StepperPlugin, LoadErrorsComeInModelOrder) {
+  const std::string first_error = "actuator 'a' (id 0): bus_voltage = \"48V\"";
+  const std::string second_error = "actuator 'b' (id 1): kp = \"x\"";
+  std::string error;
+  EXPECT_FALSE(LoadModel(RotorModel(TsuiActuator("a", "j1", Config("bus_voltage", "48V")) +
+                                    TsuiActuator("b", "j1", Config("kp", "x"))),
+                         &error));
+  const size_t first = error.find(first_error), second = error.find(second_error);
+  ASSERT_NE(first, std::string::npos) << error;
+  ASSERT_NE(second, std::string::npos) << error;
+  EXPECT_LT(first, second) << error;
+  EXPECT_FALSE(LoadModel(RotorModel(TsuiActuator("a", "j1", Config("bus_voltage", "48V")) +
+                                    TsuiActuator("b", "j1", "")),
+                         &error));
+  EXPECT_THAT(error, HasSubstr(first_error));
+}
+
+// Issue 16: dyntype="filter" loaded and MuJoCo integrated act, but the drive read the raw ctrl, so
+// the dynamics were silently ignored. The drive now reads the activation, as MuJoCo's own
+// actuators feed act to their gain: a 1 rad step of ctrl through a 20 ms filter reaches the drive
+// as MuJoCo's act (exactly: the command θcmd it holds after each step is act at the step's end),
+// 0.39 rad after 10 ms where ctrl is 1 rad.
+TEST(StepperPlugin, DyntypeFeedsTheActivation) {
+  const std::string actuator =
+      R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" armature="0.36e-4" )"
+      R"(dyntype="filter" dynprm="0.02">)" +
+      Config("drive", "ideal_current") + "</plugin>";
+  const ModelPtr m = LoadModel(RotorModel(
+      actuator, "", R"(<plugin plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  ASSERT_TRUE(m);
+  ASSERT_EQ(m->na, 1);
+  const DataPtr d(mj_makeData(m.get()));
+  d->ctrl[0] = 1.0;  // rad
+  for (int k = 0; k < 200; ++k) {
+    mj_step(m.get(), d.get());
+    mj_forward(m.get(), d.get());  // the signals of the state after the step
+    ASSERT_EQ(d->sensordata[kThetaCmd], d->act[0]) << "step " << k;
+  }
+  EXPECT_NEAR(d->act[0], 1 - std::exp(-0.01 / 0.02), 0.01);  // Euler's 1 − (1 − h/τ)^200
+  EXPECT_LT(d->sensordata[kThetaCmd], 0.5);
+}
+
+// Issue 16: with forcerange="-0.01 0.01" MuJoCo clips actuator_force to 0.01 N·m while the
+// torque_total signal said 0.5 N·m and the docs called it the actuator force. It is the motor's
+// own torque τm + τdet, before the clamp, and the signal table says so: a rotor held 0.02 rad
+// behind its command by ideal currents (δ = Nr·0.02 = 1 rad) makes Km·I·sin δ ≈ 0.48 N·m.
+TEST(StepperPlugin, ForcerangeClipsTheForceNotTheMotorTorque) {
+  const std::string actuator =
+      R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" armature="0.36e-4" )"
+      R"(forcelimited="true" forcerange="-0.01 0.01">)" +
+      Config("drive", "ideal_current") + Config("detent", "none") + "</plugin>";
+  const ModelPtr m = LoadModel(RotorModel(
+      actuator, "", R"(<plugin plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)"));
+  ASSERT_TRUE(m);
+  const DataPtr d(mj_makeData(m.get()));
+  d->ctrl[0] = 0.02;  // rad: δ = 1 electrical rad
+  mj_forward(m.get(), d.get());
+  EXPECT_EQ(d->actuator_force[0], 0.01);
+  const double torque = 1.9 * 0.3 * std::sin(1.0);  // I·Km·sin δ, N·m
+  EXPECT_NEAR(d->sensordata[kTorqueTotal], torque, 1e-9);
+  EXPECT_THAT(SignalTable()[kTorqueTotal].meaning,
+              AllOf(HasSubstr("before MuJoCo's forcerange clamp"), HasSubstr("actuator_force")));
 }
 
 TEST(StepperPlugin, UnknownAttributeFailsLoad) {

@@ -186,17 +186,18 @@ TEST(Runner, CoarseTimestepIsFoundAndEnforced) {
   Result r = RunCli("info " + path.string());
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_THAT(r.output, AllOf(HasSubstr("warning"), HasSubstr("too coarse"), HasSubstr("0.001"),
-                              HasSubstr("largest timestep that resolves it: 0.000225 s")));
-  // The plugin's own warning (rotor alone: ωn = √(28.5/3.6e-5) = 890 rad/s, ωn·h = 0.89), once.
+                              HasSubstr("largest timestep that resolves it: 0.000213 s")));
+  // The plugin's own warning (rotor alone: ωn = √((28.5 + 3.15)/3.6e-5) = 938 rad/s with the
+  // detent's worst case, ωn·h = 0.94), once.
   const std::string plugin_warning = "timestep 0.001 s is too coarse for the rotor alone";
   EXPECT_THAT(r.output, HasSubstr(plugin_warning));
   EXPECT_EQ(r.output.find(plugin_warning), r.output.rfind(plugin_warning)) << r.output;
 
   r = RunCli("run " + path.string() + " --duration 0.05 --quiet");
   EXPECT_NE(r.status, 0);
-  EXPECT_THAT(r.output, AllOf(HasSubstr("too coarse for stepper 'shaft'"),
-                              HasSubstr("use timestep <= 0.000225 s"),
-                              HasSubstr("--allow-coarse")));
+  EXPECT_THAT(r.output,
+              AllOf(HasSubstr("too coarse for stepper 'shaft'"),
+                    HasSubstr("use timestep <= 0.000213 s"), HasSubstr("--allow-coarse")));
   r = RunCli("run " + path.string() + " --duration 0.05 --quiet --allow-coarse");
   EXPECT_EQ(r.status, 0) << r.output;
 }
