@@ -48,4 +48,5 @@ cd "$build"
 start=$(date +%s)
 "./$target" -timeout=1 -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$build/" \
   "${limit[@]}" "$@" "$scratch" "$corpus"
-echo "run.sh: $target fuzzed $(( $(date +%s) - start )) s; corpus $(ls "$corpus" | wc -l) seed files + $(ls "$scratch" | wc -l) new"
+echo "run.sh: $target fuzzed $(( $(date +%s) - start )) s; corpus $(ls "$corpus" | wc -l) seed" \
+  "files + $(ls "$scratch" | wc -l) new"
