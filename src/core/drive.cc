@@ -196,7 +196,8 @@ void Drive::AnchorAt(DriveCoreState* s, double time, bool coarse) const {
                                   bool keep_energies) const {
   const double energies[3] = {s->energy_input, s->energy_copper, s->energy_mechanical};
   *s = Rest(time, theta, command);
-  if (keep_energies) {
+  // (Only finite ones: the state a restart leaves is finite, whatever the one it replaces.)
+  if (keep_energies && std::isfinite(energies[0] + energies[1] + energies[2])) {
     s->energy_input = energies[0];
     s->energy_copper = energies[1];
     s->energy_mechanical = energies[2];

@@ -271,6 +271,11 @@ TEST(Drive, BadInputIsReportedAndStateStaysFinite) {
   s = good;
   EXPECT_EQ(drive.Advance(&s, 10 * h, (10 + kMaxTicksPerAdvance + 1) * h, 0.0, 1.0),
             AdvanceStatus::kEventBound);
+  // ... and the energies it keeps are only finite ones (drive_fuzz found a stored −inf kept).
+  s = good;
+  s.energy_input = -std::numeric_limits<double>::infinity();
+  EXPECT_EQ(drive.Advance(&s, 0.0, 1e180, 0.0, 0.0), AdvanceStatus::kEventBound);
+  EXPECT_TRUE(std::isfinite(s.energy_input));
   s = good;
   EXPECT_EQ(drive.Advance(&s, 10 * h, (10 + kMaxTicksPerAdvance - 1) * h, 0.0, 1.0),
             AdvanceStatus::kOk);

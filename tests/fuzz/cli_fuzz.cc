@@ -24,19 +24,15 @@
 
 #include "cli.h"
 #include "core/command_profile.h"
+#include "fuzz_common.h"
 
 namespace {
 
 using mjstepper::tools::Command;
 using mjstepper::tools::CommandKind;
 using mjstepper::tools::CommandLine;
+using mjstepper::fuzz::Fail;
 using mjstepper::tools::Range;
-
-[[noreturn]] void Fail(const char* what, const std::string& detail) {
-  std::fprintf(stderr, "\ncli_fuzz: PROPERTY VIOLATED: %s\n%s\n", what, detail.c_str());
-  std::fflush(stderr);
-  __builtin_trap();
-}
 
 const char* const kNumbers[] = {
     "0",     "-0",     "1",        "-1",      "0.5",     "30",        "1e300",   "-1e300",
@@ -189,6 +185,8 @@ void CheckAccepted(const Command& c, const std::vector<std::string>& argv) {
 }
 
 }  // namespace
+
+const char* const mjstepper::fuzz::kTargetName = "cli_fuzz";
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   FuzzedDataProvider in(data, size);

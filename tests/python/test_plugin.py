@@ -74,6 +74,26 @@ class PluginFromPython(unittest.TestCase):
             mujoco.MjModel.from_xml_string(xml)
         self.assertIn('hold_current = "-1.9"', str(ctx.exception))
 
+    def test_load_errors_in_model_order(self):
+        """Issue 16: with two bad steppers Python showed only the second one's error. Now both,
+        the first actuator's first (MuJoCo 4.0's compiler repeats them after: see
+        plugin/README.md)."""
+        with open(os.path.join(SOURCE, "models", "tsui_rigid.xml")) as f:
+            xml = f.read()
+        start = xml.index("<plugin name=\"shaft\"")
+        end = xml.index("</plugin>", start) + len("</plugin>")
+        first = xml[start:end].replace('<config key="input"',
+                                       '<config key="bus_voltage" value="48V"/><config key="input"')
+        second = xml[start:end].replace('name="shaft"', 'name="shaft2"').replace(
+            '<config key="input"', '<config key="kp" value="x"/><config key="input"')
+        with self.assertRaises(ValueError) as ctx:
+            mujoco.MjModel.from_xml_string(xml[:start] + first + second + xml[end:])
+        message = str(ctx.exception)
+        first_error = message.find("actuator 'shaft' (id 0): bus_voltage = \"48V\"")
+        second_error = message.find("actuator 'shaft2' (id 1): kp = \"x\"")
+        self.assertGreaterEqual(first_error, 0, message)
+        self.assertGreater(second_error, first_error, message)
+
 
 if __name__ == "__main__":
     unittest.main()

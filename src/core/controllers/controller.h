@@ -59,7 +59,9 @@ struct Sample {
   CommandSample command;
   FeedbackSample feedback;
   PhaseVector current;         ///< ia + j·ib at t_k, A (ideal current sensors)
-  long tick = 0;               ///< k: this tick is at t_k = k·T
+  long tick = 0;               ///< k: this tick is at t_k = k·T (exact while |t|/T < 2^53;
+                               ///< beyond, a label counted from the clock's anchor: only its
+                               ///< residues mean something, as the servo's decimation uses them)
 
   static Sample From(const Sample& s) { return s; }
 };
