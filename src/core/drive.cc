@@ -20,6 +20,10 @@
 namespace mjstepper {
 namespace {
 
+// The tick labels k (Sample::tick) stay below 2^53 in magnitude, where a double holds every
+// integer exactly.
+constexpr double kTickLabelRange = 9007199254740992.0;  // 2^53
+
 void Require(bool ok, const char* name, double value, const char* rule) {
   if (!ok) throw std::invalid_argument(fmt::format("DriveConfig: {} = {}; {}", name, value, rule));
 }
@@ -186,8 +190,7 @@ void Drive::AnchorAt(DriveCoreState* s, double time, bool coarse) const {
   s->next_tick = 0;
   const double k = std::ceil(time / period);
   // k is kept below 2^53, where it is an exact integer; it only labels ticks (Sample::tick).
-  constexpr double kLabelRange = 9007199254740992.0;  // 2^53
-  s->anchor_tick = std::isfinite(k) ? std::fmod(k, kLabelRange) : 0.0;
+  s->anchor_tick = std::isfinite(k) ? std::fmod(k, kTickLabelRange) : 0.0;
   // On the grid k·T while that is representable to the clock's resolution; else the step's time.
   s->anchor_time = coarse ? time : k * period;
 }
@@ -275,7 +278,7 @@ AdvanceStatus Drive::Advance(DriveState* s, double t0, double t1, double theta1,
   // A clock far from its anchor re-anchors at its next tick, so that n stays a small integer.
   if (!(s->next_tick >= 0 && s->next_tick <= kMaxTicksFromAnchor)) {
     s->anchor_time = NextTickTime(*s);
-    s->anchor_tick = std::fmod(s->anchor_tick + s->next_tick, 9007199254740992.0);  // < 2^53
+    s->anchor_tick = std::fmod(s->anchor_tick + s->next_tick, kTickLabelRange);
     s->next_tick = 0;
   }
   const bool coarse = CoarseTime(t0) || CoarseTime(t1);
@@ -364,7 +367,7 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
     // k of the ticks, for the controllers (Sample::tick), from the anchor's label (below 2^53 in
     // magnitude unless the stored state was made up).
     const long k_anchor =
-        std::abs(s->anchor_tick) < 9007199254740992.0 ? static_cast<long>(s->anchor_tick) : 0;
+        std::abs(s->anchor_tick) < kTickLabelRange ? static_cast<long>(s->anchor_tick) : 0;
     PhaseVector current = s->current();
     PhaseVector voltage = s->voltage();
     double t = start;
