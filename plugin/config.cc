@@ -24,7 +24,11 @@ constexpr AttributeSpec kAttrInput{
     "input", "name", "`position`", "—",
     "`position`: ctrl is θcmd in rad (rotor side), or the target angle when `profile` is set. "
     "`velocity`: ctrl is dθcmd/dt in rad/s; the drive integrates θcmd, starting at the rotor's "
-    "angle."};
+    "angle. `steps` (STEP/DIR, SPEC §8): ctrl is the motion controller's microstep count n at "
+    "the drive's `microsteps` M (an integer, as a driver counts pulses; θcmd = n·2π/(4·Nr·M)); "
+    "the pulses from one step's count to the next are spread evenly over the step. Needs a drive "
+    "with a microstep table (`chopper`, or `current_microstep`/`ideal_current` with `microsteps` "
+    "≥ 1)."};
 constexpr AttributeSpec kAttrRotorTeeth{"rotor_teeth", "integer", "preset (50)", "—",
                                         "Nr (\"pole pairs\" in Tsui): x = Nr·θ, full step "
                                         "2π/(4·Nr)."};
@@ -127,9 +131,10 @@ DriveConfig Parse(const AttributeSource& a) {
   c.motor.rotor_inertia = a.Real(kAttrRotorInertia, c.motor.rotor_inertia, Rule::kNonNegative);
   c.motor.detent = a.Harmonics(kAttrDetent).value_or(c.motor.detent);
 
-  c.input = a.Choice(kAttrInput, "position", {"position", "velocity"}) == "velocity"
-                ? InputMode::kVelocity
-                : InputMode::kPosition;
+  const std::string input = a.Choice(kAttrInput, "position", {"position", "velocity", "steps"});
+  c.input = input == "velocity" ? InputMode::kVelocity
+            : input == "steps"  ? InputMode::kSteps
+                                : InputMode::kPosition;
   c.bus_voltage = a.Real(kAttrBusVoltage, c.bus_voltage, Rule::kPositive);
   c.isr_period = a.Real(kAttrIsrPeriod, c.isr_period, Rule::kPositive);
   c.compute_delay = a.Real(kAttrComputeDelay, c.compute_delay, Rule::kNonNegative);

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <sstream>
@@ -127,6 +128,29 @@ std::optional<std::vector<DetentHarmonic>> AttributeSource::Harmonics(
   }
   if (harmonics.empty()) ThrowBad(spec, *raw, rule);
   return harmonics;
+}
+
+std::optional<std::vector<double>> AttributeSource::Reals(const AttributeSpec& spec, double low,
+                                                         double high, int min_count,
+                                                         int max_count) const {
+  const std::optional<std::string> raw = Raw(spec);
+  if (!raw) return std::nullopt;
+  const std::string rule = fmt::format(
+      "expected {} to {} numbers in [{:g}, {:g}] separated by blanks or commas ({})", min_count,
+      max_count, low, high, spec.unit);
+  std::string text = *raw;
+  std::replace(text.begin(), text.end(), ',', ' ');
+  std::stringstream fields(text);
+  std::string field;
+  std::vector<double> values;
+  while (fields >> field) {
+    double v = 0;
+    if (!ParseFiniteDouble(field, &v) || !(v >= low && v <= high)) ThrowBad(spec, *raw, rule);
+    values.push_back(v);
+    if (static_cast<int>(values.size()) > max_count) ThrowBad(spec, *raw, rule);
+  }
+  if (static_cast<int>(values.size()) < min_count) ThrowBad(spec, *raw, rule);
+  return values;
 }
 
 }  // namespace mjstepper

@@ -66,6 +66,10 @@ class AttributeSource {
                      const std::vector<std::string>& choices) const;
   /// Detent-style harmonic triplets "order amplitude phase; ..." or "none".
   std::optional<std::vector<DetentHarmonic>> Harmonics(const AttributeSpec& spec) const;
+  /// A list of numbers separated by blanks or commas, each in [low, high], at least `min_count`
+  /// and at most `max_count` of them; nullopt when the attribute is not set.
+  std::optional<std::vector<double>> Reals(const AttributeSpec& spec, double low, double high,
+                                           int min_count, int max_count) const;
 
  private:
   AttributeReader read_;

@@ -174,9 +174,13 @@ double CommandProfile::Angle(double t) const {
   return 0.0;
 }
 
-double CommandProfile::ControlForStep(double t, double h, InputMode input,
-                                      double theta_start) const {
+double CommandProfile::ControlForStep(double t, double h, InputMode input, double theta_start,
+                                      double step_angle) const {
   if (input == InputMode::kVelocity) return (Angle(t + h) - Angle(t)) / h;
+  if (input == InputMode::kSteps) {
+    const double angle = (absolute_angle() ? 0.0 : theta_start) + Angle(t + h);  // rad
+    return step_angle > 0 ? std::round(angle / step_angle) : 0.0;
+  }
   return (absolute_angle() ? 0.0 : theta_start) + Angle(t + 0.5 * h);
 }
 

@@ -38,8 +38,10 @@ class CommandProfile {
   /// The control for the simulation step [t, t + h]: the mean speed over the step (velocity input,
   /// so that the drive's integrated θcmd matches Angle at step ends), or the angle at mid-step
   /// (position input, centring the held staircase on the profile). `theta_start` is added to
-  /// speed profiles' angles.
-  double ControlForStep(double t, double h, InputMode input, double theta_start) const;
+  /// speed profiles' angles. STEP/DIR input (kSteps): the microstep count of the angle at the
+  /// step's end, round(angle/step_angle), step_angle in rad per microstep (Drive::StepAngle).
+  double ControlForStep(double t, double h, InputMode input, double theta_start,
+                        double step_angle = 0) const;
 
   const std::string& text() const { return text_; }
 

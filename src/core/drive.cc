@@ -14,6 +14,7 @@
 
 #include "core/motor.h"
 #include "core/sensors/encoder.h"
+#include "core/switching.h"
 #include "core/units.h"
 #include "core/winding.h"
 
@@ -56,6 +57,11 @@ void Validate(const DriveConfig& c) {
     Require(v->voltage_amplitude > 0 && v->voltage_amplitude <= c.bus_voltage,
             "voltage_amplitude", v->voltage_amplitude, "must be > 0 and <= bus_voltage (V)");
   }
+  const bool switching = std::visit(
+      [](const auto& unit) { return SwitchingUnit<std::decay_t<decltype(unit)>>; }, c.controller);
+  Require(!switching || c.power_stage == PowerStageKind::kTwoHBridges,
+          "power_stage (0: h_bridge, 1: svpwm)", static_cast<int>(c.power_stage),
+          "a chopper switches each phase's own full bridge: it needs h_bridge");
   Require(c.isr_period > 0 && std::isfinite(c.isr_period), "isr_period", c.isr_period,
           "must be finite and > 0 (s)");
   Require(c.compute_delay >= 0 && c.compute_delay < c.isr_period, "compute_delay", c.compute_delay,
@@ -64,13 +70,22 @@ void Validate(const DriveConfig& c) {
   Require(c.encoder_counts >= 0, "encoder_counts", c.encoder_counts, "must be >= 0 (0: ideal)");
   Require(c.velocity_cutoff > 0 && std::isfinite(c.velocity_cutoff), "velocity_cutoff",
           c.velocity_cutoff, "must be finite and > 0 (Hz)");
+  Require(c.input != InputMode::kSteps || Microsteps(c.controller) > 0, "microsteps",
+          Microsteps(c.controller),
+          "input = steps counts microsteps: it needs a drive with a microstep table and "
+          "microsteps >= 1");
   if (c.profile.kind != ProfileKind::kNone) {
-    Require(c.input == InputMode::kPosition, "input (0: position, 1: velocity)",
+    Require(c.input == InputMode::kPosition, "input (0: position, 1: velocity, 2: steps)",
             static_cast<int>(c.input), "a motion profile needs input = position (ctrl = target)");
     for (double limit : {c.profile.max_speed, c.profile.max_accel, c.profile.max_jerk}) {
       Require(limit > 0 && std::isfinite(limit), "profile limit", limit, "must be finite and > 0");
     }
   }
+}
+
+double StepAngle(const DriveConfig& c) {
+  const int microsteps = Microsteps(c.controller);
+  return microsteps > 0 ? kTwoPi / (4.0 * c.motor.rotor_teeth * microsteps) : 0.0;  // S-1
 }
 
 double LargestTimestep(double stiffness, double inertia) {
@@ -117,6 +132,7 @@ Drive::Drive(DriveConfig config) : config_(std::move(config)) {
                 .torque_constant = motor.torque_constant,
                 .isr_period = config_.isr_period};
   layout_ = MakeStateLayout(config_);
+  step_angle_ = mjstepper::StepAngle(config_);
   if (layout_.controller + layout_.profile > kMaxUnitState) {
     throw std::invalid_argument(fmt::format("Drive: {} unit state doubles exceed {}",
                                             layout_.controller + layout_.profile, kMaxUnitState));
@@ -157,7 +173,9 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   s.set_rotor_phasor(UnitPhasor(constants_.rotor_teeth * theta));
   const bool holds_command =
       config_.input == InputMode::kPosition && config_.profile.kind == ProfileKind::kNone;
-  s.theta_cmd = holds_command ? command : theta;
+  s.theta_cmd = config_.input == InputMode::kSteps ? command * step_angle_
+                : holds_command                      ? command
+                                                     : theta;
   const PhaseVector current = std::visit(
       [&](const auto& unit) {
         using C = std::decay_t<decltype(unit)>;
@@ -175,8 +193,20 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   // The rotor starts in the cycle nearest its command: that is where it is, not a slip.
   s.slip_cell = s.slip_origin = std::round(constants_.rotor_teeth * (s.theta_cmd - theta) / kTwoPi);
   s.last_slip_time = -1;
-  // At rest v = R·i holds the current constant (S-3 with ω = 0).
-  const PhaseVector voltage = config_.motor.resistance * current;
+  // At rest v = R·i holds the current constant (S-3 with ω = 0); a switching bridge starts its
+  // chopper cycle there instead (switching.h).
+  PhaseVector voltage = config_.motor.resistance * current;
+  std::visit(
+      [&](const auto& unit) {
+        using C = std::decay_t<decltype(unit)>;
+        if constexpr (SwitchingUnit<C>) {
+          auto state = Unpack<typename C::State>(s.unit.data());
+          unit.Start(stage_, time, &state);
+          voltage = {state.phase[0].voltage, state.phase[1].voltage};
+          Pack(state, s.unit.data());
+        }
+      },
+      config_.controller);
   s.current_a = s.current_ref_a = current.real();
   s.current_b = s.current_ref_b = current.imag();
   s.voltage_a = s.pending_a = voltage.real();
@@ -258,6 +288,7 @@ double Drive::CommandFrom(double ctrl, const DriveState* state, double theta) co
   const bool velocity = config_.input == InputMode::kVelocity;
   if (state == nullptr || !state->started) return velocity ? 0.0 : theta;
   if (velocity) return state->omega_cmd;
+  if (config_.input == InputMode::kSteps) return std::round(state->theta_cmd / step_angle_);
   if (layout_.profile > 0) {
     return Unpack<MotionProfile::State>(state->unit.data() + layout_.controller).target;
   }
@@ -318,12 +349,16 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
     config_.profile.Update(&plan, t0, t1, command);
   }
   const double theta_cmd0 = s->theta_cmd;
-  const double omega_cmd =
-      config_.input == InputMode::kVelocity ? command : (h > 0 ? (command - theta_cmd0) / h : 0.0);
+  // STEP/DIR: the count's angle, reached at the step's end along a line (pulses spread evenly).
+  const bool steps = config_.input == InputMode::kSteps;
+  const double target = steps ? command * step_angle_ : command;  // rad
+  const double omega_cmd = config_.input == InputMode::kVelocity
+                               ? command
+                               : (h > 0 ? (target - theta_cmd0) / h : 0.0);
   auto command_at = [&](double t) -> CommandSample {  // t from `origin`
     if (profiled) return config_.profile.Evaluate(plan, origin + t);
-    if (config_.input == InputMode::kVelocity) {
-      return {.theta = theta_cmd0 + command * (t - (t0 - origin)), .omega = command};
+    if (config_.input == InputMode::kVelocity || steps) {
+      return {.theta = theta_cmd0 + omega_cmd * (t - (t0 - origin)), .omega = omega_cmd};
     }
     return {.theta = command, .omega = omega_cmd};
   };
@@ -412,20 +447,47 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
           .current = current,
           .tick = k};
       const TickOutput out = controller.Tick(constants_, C::Input::From(sample), stage_, &unit);
-      s->pending_a = out.bridge.voltage.real();
-      s->pending_b = out.bridge.voltage.imag();
+      // A switching unit's tick gives the phases' new targets, a voltage controller's the voltage.
+      const PhaseVector next = SwitchingUnit<C> ? out.current_ref : out.bridge.voltage;
+      s->pending_a = next.real();
+      s->pending_b = next.imag();
       s->pending = 1;
       s->current_ref_a = out.current_ref.real();
       s->current_ref_b = out.current_ref.imag();
     };
     constexpr double kNever = std::numeric_limits<double>::infinity();
+    // A switching bridge's next event on each phase (switching.h), from `origin`: found on the
+    // exact solution from the state at t with the held voltage, valid until that phase's voltage
+    // or comparator changes (the phases' windings are independent, S-3) or the step ends.
+    double t_switch[2] = {kNever, kNever};
+    auto predict = [&](int p) {
+      if constexpr (SwitchingUnit<C>) {
+        if (!speed) speed.emplace(motor, omega, h, s->rotor_phasor(), phasor1);
+        t_switch[p] = NextSwitchTime(unit.phase[p], p, motor, *speed, current, voltage, phasor,
+                                     origin + t, origin + end) -
+                      origin;
+      }
+    };
+    // Phase p's bridge decides again (SwitchReason) at t; its new voltage is held from there.
+    auto switch_phase = [&](int p, SwitchReason why) {
+      if constexpr (SwitchingUnit<C>) {
+        controller.Switch(stage_, why, p, origin + t, p == 0 ? current.real() : current.imag(),
+                          &unit);
+        voltage = {unit.phase[0].voltage, unit.phase[1].voltage};
+      }
+    };
+    predict(0);
+    predict(1);
     // Every event moves t forward by at least eps or is the step's last, and n only grows: with
-    // h <= kMaxTicksPerAdvance·T (Advance) the loop ends well before its hard stop.
+    // h <= kMaxTicksPerAdvance·T (Advance) the loop ends well before its hard stop. (A switching
+    // bridge's events each start an on-time, an off-time or a decay of its own length, bounded
+    // below by the unit's attributes.)
     long events = 0;
     while (true) {
       const double t_apply = s->pending ? apply_at : kNever;
       const double t_tick = anchor + n * period;  // t_k − origin
-      const double t_event = std::min(t_apply, t_tick);
+      const int p_next = t_switch[1] < t_switch[0] ? 1 : 0;  // the phase that switches first
+      const double t_event = std::min({t_apply, t_tick, t_switch[p_next]});
       // Events in [t0, t1 − eps] belong to this step; one within eps of t1 is the next step's, so
       // that a tick at a step boundary samples the command set for the step that starts there.
       if (t_event > end - eps) {
@@ -438,9 +500,26 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
         break;
       }
       integrate_to(std::min(t_event, end));
-      if (t_apply <= t_tick) {  // S-15: v[k−1] reaches the phases at t_{k−1} + D, then is held
-        voltage = {s->pending_a, s->pending_b};
-        s->pending = 0;
+      if (t_switch[p_next] < std::min(t_apply, t_tick)) {  // a bridge switches (switching.h)
+        if constexpr (SwitchingUnit<C>) {
+          const PhaseSwitch& sw = unit.phase[p_next];
+          const bool timed = sw.has_until != 0 && sw.until - origin <= t + eps;
+          switch_phase(p_next, timed ? SwitchReason::kTime : SwitchReason::kLevel);
+          predict(p_next);
+        }
+      } else if (t_apply <= t_tick) {  // S-15: v[k−1] reaches the phases at t_{k−1} + D
+        if constexpr (SwitchingUnit<C>) {  // the tick's targets reach the comparators
+          C::SetTarget(0, s->pending_a, &unit);
+          C::SetTarget(1, s->pending_b, &unit);
+          s->pending = 0;
+          switch_phase(0, SwitchReason::kTarget);
+          switch_phase(1, SwitchReason::kTarget);
+          predict(0);
+          predict(1);
+        } else {  // the voltage, held until the next apply
+          voltage = {s->pending_a, s->pending_b};
+          s->pending = 0;
+        }
       } else {  // interrupt k: sample, compute v[k]
         tick(k_anchor + static_cast<long>(n));
         apply_at = t_tick + config_.compute_delay;
@@ -458,7 +537,7 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   const CommandSample at_end = command_at(t1 - origin);
   s->theta = theta1;
   s->set_rotor_phasor(phasor1);
-  s->theta_cmd = at_end.theta;
+  s->theta_cmd = steps ? target : at_end.theta;
   s->omega_cmd = profiled ? at_end.omega : omega_cmd;
   if (profiled) Pack(plan, s->unit.data() + layout_.controller);
   if constexpr (C::kCountsSlips) {  // open loop: a slip is a whole electrical cycle lost or won

@@ -47,6 +47,9 @@ namespace mjstepper {
 enum class InputMode {
   kPosition,  ///< the command is the rotor angle θcmd, rad (held over a step), or a profile target
   kVelocity,  ///< the command is dθcmd/dt, rad/s; the drive integrates θcmd
+  kSteps,     ///< STEP/DIR (SPEC §8): the command is the motion controller's microstep count n
+              ///< at the drive's `microsteps` M, θcmd = n·2π/(4·Nr·M); the pulses between two
+              ///< counts are spread evenly over the step, θcmd moving linearly between them
 };
 
 enum class WindingSolver { kExact, kRk4 };  ///< kRk4 only for reference runs in tests
@@ -70,6 +73,10 @@ struct DriveConfig {
 
 /// Throws std::invalid_argument naming the field, value and rule.
 void Validate(const DriveConfig& c);
+
+/// The rotor angle of one microstep of STEP/DIR input (input = steps), rad: 2π/(4·Nr·M) with M
+/// the controller's microsteps (S-1); 0 when the controller has no microstep table.
+double StepAngle(const DriveConfig& c);
 
 /// The largest ωn·h a simulation step may have: MuJoCo's semi-implicit Euler turns a spring of
 /// natural frequency ωn into one whose frequency is off by about (ωn·h)²/24, which passes 0.17 %
@@ -250,6 +257,10 @@ class Drive {
   /// θcmd); one not yet started rests where the rotor is (`theta`, rad).
   double CommandFrom(double ctrl, const DriveState* state, double theta) const;
 
+  /// The rotor angle of one microstep of STEP/DIR input, rad: 2π/(4·Nr·M) (S-1); 0 when the
+  /// controller has no microstep table.
+  double StepAngle() const { return step_angle_; }
+
   /// τm + τdet at rotor angle θ with the state's currents (N·m).
   double Torque(const DriveCoreState& state, double theta) const;
   /// The same from a started state's stored doubles (layout().total() of them), reading only
@@ -328,6 +339,7 @@ class Drive {
   VelocityEstimator velocity_estimator_;  // S-17
   double velocity_gain_ = 0;              // its a = 1 − exp(−2π·fc·T), computed once
   std::vector<DecayKernel> decay_kernels_;  // for T, D and T − D, computed once
+  double step_angle_ = 0;                   // rad per microstep (StepAngle)
 };
 
 }  // namespace mjstepper

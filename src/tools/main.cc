@@ -48,8 +48,9 @@ int Info(const std::string& path) {
         "    rotor-side inertia at qpos0 (rotor and load, other joints held) J = {:.4g} kg·m²\n"
         "      → fn = (1/2π)·√(T'/J) = {:.2f} Hz (S-1..S-7)\n",
         s.name, ControllerName(s.config.controller),
-        s.config.input == InputMode::kPosition ? "position (ctrl in rad)"
-                                               : "velocity (ctrl in rad/s)",
+        s.config.input == InputMode::kPosition   ? "position (ctrl in rad)"
+        : s.config.input == InputMode::kVelocity ? "velocity (ctrl in rad/s)"
+                                                 : "steps (ctrl in microsteps)",
         p.rotor_teeth, p.resistance, p.inductance, p.torque_constant, p.detent.size(),
         drive.RestCurrentMagnitude(), StiffnessFormula(s.config.controller), stiffness, inertia,
         fn);

@@ -141,7 +141,8 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     for (size_t i = 0; i < sm.steppers.size(); ++i) {
       const StepperActuator& s = sm.steppers[i];
       d->ctrl[s.ctrladr] =
-          profiles[i].ControlForStep(t - t_begin, h, s.config.input, theta_start[i]);
+          profiles[i].ControlForStep(t - t_begin, h, s.config.input, theta_start[i],
+                                     StepAngle(s.config));
     }
     static const int kLoadAngle = SignalIndex("load_angle");
     static const int kLostSteps = SignalIndex("lost_steps");

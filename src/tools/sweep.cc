@@ -47,7 +47,7 @@ struct SpeedRun {
   }
   void Step() {
     d->ctrl[s.ctrladr] = profile.ControlForStep(d->time, m->opt.timestep, s.config.input,
-                                                theta_start);
+                                                theta_start, StepAngle(s.config));
     const double t = d->time;
     mj_step(m, d);
     if (const std::string unstable = InstabilityMessage(d, t); !unstable.empty()) {

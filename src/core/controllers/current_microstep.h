@@ -15,18 +15,13 @@
 #include "core/controllers/controller.h"
 #include "core/controllers/dq_current_loop.h"
 #include "core/controllers/harmonic_compensation.h"
+#include "core/controllers/step_table.h"
 
 namespace mjstepper {
 
 inline constexpr AttributeSpec kAttrHoldCurrent{
     "hold_current", "real", "1.9", "A",
     "id* of `current_microstep` and `ideal_current`, T(12); > 0."};
-
-inline constexpr AttributeSpec kAttrMicrosteps{
-    "microsteps", "integer", "0", "per full step",
-    "The resolution of the commanded current vector, as a real driver's setting: 1 full step, "
-    "2 half step, ... 256; 0: continuous (the ideal sine of T(12)). ψ is rounded to multiples of "
-    "(π/2)/microsteps."};
 
 /// The T(12)-(13) setpoint shared by the PI drive and the ideal current source.
 struct MicrostepSetpoint {

@@ -7,6 +7,7 @@
 #include <variant>
 #include <vector>
 
+#include "core/controllers/constant_off_time.h"
 #include "core/controllers/current_microstep.h"
 #include "core/controllers/high_gain_foc.h"
 #include "core/controllers/servo.h"
@@ -17,7 +18,7 @@ namespace mjstepper {
 
 using Controller = std::variant<CurrentMicrostep,  // the default (index 0)
                                 VoltageMicrostep, IdealCurrent, Servo, Identification, Stmms,
-                                HighGainFoc>;
+                                HighGainFoc, ConstantOffTime>;
 
 namespace internal {
 template <class V>
@@ -74,6 +75,21 @@ inline const HarmonicCompensation* Damping(const Controller& c) {
           return &unit.setpoint.damping;
         } else {
           return nullptr;
+        }
+      },
+      c);
+}
+
+/// The microsteps per full step of a controller's current table (0: continuous, or none).
+inline int Microsteps(const Controller& c) {
+  return std::visit(
+      [](const auto& unit) -> int {
+        if constexpr (requires { unit.table.microsteps; }) {
+          return unit.table.microsteps;
+        } else if constexpr (requires { unit.setpoint.microsteps; }) {
+          return unit.setpoint.microsteps;
+        } else {
+          return 0;
         }
       },
       c);

@@ -1,0 +1,139 @@
+// The microstep table of a STEP/DIR driver (SPEC §8): the current target of each phase at the
+// driver's step position, shared by the chopper drives (constant_off_time.h, spread_cycle.h) and
+// StealthChop (stealth_chop.h).
+//
+// The driver's position is an integer count of microsteps at `microsteps` per full step; one
+// electrical cycle is 4 full steps (S-1), so count n points the current vector at the electrical
+// angle ψ = n·(π/2)/microsteps, and the drive's θcmd at n·2π/(4·Nr·microsteps) (input = steps).
+// The vector's components are the table's entries at ψ (the MSLUT of Trinamic's drivers: by
+// default a sine, 1024 entries per electrical cycle; a custom quarter wave as an attribute):
+//   ia* = I_peak·T(ψ + π/2),   ib* = I_peak·T(ψ),   T(ψ) = sin ψ by default          (S-10 at id)
+// With interpolation (Trinamic's MicroPlyer, TMC2209 datasheet §"MicroPlyer"), a step arriving
+// after an interval Δ since the one before is spread over the next Δ in 1/256 full steps: the
+// vector lags the count by up to one step interval and follows it exactly only at an even rate.
+#ifndef MJSTEPPER_CORE_CONTROLLERS_STEP_TABLE_H_
+#define MJSTEPPER_CORE_CONTROLLERS_STEP_TABLE_H_
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "core/controllers/controller.h"
+
+namespace mjstepper {
+
+inline constexpr AttributeSpec kAttrMicrosteps{
+    "microsteps", "integer", "0 (`current_microstep`, `ideal_current`); 16 (chopper drives)",
+    "per full step",
+    "The resolution of the commanded current vector, as a real driver's setting (MRES): 1 full "
+    "step, 2 half step, ... 256; ψ is rounded to multiples of (π/2)/microsteps. With `input` = "
+    "`steps`, ctrl counts these. 0 (Tsui's drives only): continuous, the ideal sine of T(12)."};
+
+inline constexpr AttributeSpec kAttrRunCurrent{
+    "run_current", "real", "the motor's rated current", "A (RMS)",
+    "Phase current of the chopper and StealthChop drives as Klipper and Trinamic state it: the "
+    "RMS of the sine, so the table's peak is √2·run_current. The default, the datasheet's rated "
+    "current I_r, gives the rated holding torque √2·Km·I_r and the rated copper loss 2·R·I_r² "
+    "(both phases at I_r, full step); > 0."};
+
+inline constexpr AttributeSpec kAttrInterpolate{
+    "interpolate", "name", "`on` (TMC drives), `off` (A4988/DRV8825 class)", "—",
+    "`on`: MicroPlyer, each step spread over the interval since the step before in 1/256 full "
+    "steps (lags by up to one step interval); `off`: the table entry of the count itself."};
+
+inline constexpr AttributeSpec kAttrCurrentTable{
+    "current_table", "list", "sine", "— (fraction of peak)",
+    "A custom microstep table: one quarter wave, `microsteps` + 1 entries from 0 (at a phase's "
+    "zero) to 1 (at its peak), each in [0, 1], blanks or commas between them; the other quarters "
+    "mirror it. Unset: an exact sine."};
+
+/// The table and the step counter of a STEP/DIR driver.
+struct MicrostepTable {
+  double peak_current = 2.0;    ///< A, √2·run_current
+  int microsteps = 16;          ///< per full step (MRES), 1..256
+  bool interpolate = true;      ///< MicroPlyer to 256
+  std::vector<double> quarter;  ///< custom quarter wave (microsteps + 1 entries); empty: sine
+
+  /// What the table keeps between ticks (plain doubles, in the unit's state).
+  struct Counter {
+    double count = 0;        ///< the count at the last tick (microsteps)
+    double from = 0;         ///< the count the interpolation starts from (microsteps)
+    double change_tick = 0;  ///< the tick at which `count` last changed
+    double interval = 0;     ///< ticks between the last two changes (≥ 1); 0: none yet
+  };
+
+  /// The count n of a commanded angle θcmd (rad): round(Nr·θcmd/(π/2)·microsteps) (S-1).
+  double Count(const DriveConstants& k, double theta_cmd) const {
+    return std::round(k.rotor_teeth * theta_cmd / (std::numbers::pi / 2) * microsteps);
+  }
+
+  /// MicroPlyer measures the step interval with a 2^20-clock counter (TMC2209 datasheet,
+  /// "MicroPlyer"): at f_CLK = 12 MHz a longer interval (a start from standstill) is not spread.
+  static constexpr double kMaxInterpolatedInterval = 1048576.0 / 12e6;  // s
+
+  /// The position (in microsteps, fractional with interpolation: multiples of microsteps/256)
+  /// at tick `tick` (every T = k.isr_period), given the count there; updates the counter.
+  double Position(const DriveConstants& dk, double count, long tick, Counter* c) const {
+    if (!interpolate || microsteps >= 256) {
+      c->count = c->from = count;
+      return count;
+    }
+    const double k = static_cast<double>(tick);
+    if (count != c->count) {  // a step (or several) since the last tick: MicroPlyer restarts
+      // The first step, and one after a standstill longer than the counter, is not spread.
+      const double since = k - c->change_tick;  // ticks
+      c->interval = c->interval > 0 && since * dk.isr_period <= kMaxInterpolatedInterval
+                        ? std::max(1.0, since)
+                        : 1.0;
+      c->from = c->count;
+      c->count = count;
+      c->change_tick = k;
+    }
+    const double progress =
+        c->interval > 0 ? std::min(1.0, (k - c->change_tick) / c->interval) : 1.0;
+    const double position = c->from + (c->count - c->from) * progress;  // microsteps
+    const double fine = 256.0 / microsteps;                             // 1/256 per microstep
+    return std::round(position * fine) / fine;
+  }
+
+  /// T(ψ) for position p in microsteps: the quarter wave mirrored (sine by default).
+  double Entry(double position) const {
+    const double quarter_steps = static_cast<double>(microsteps);
+    double r = std::fmod(position, 4 * quarter_steps);
+    if (r < 0) r += 4 * quarter_steps;
+    if (quarter.empty()) return std::sin(r * (std::numbers::pi / 2) / quarter_steps);
+    const int quadrant = static_cast<int>(r / quarter_steps);
+    double q = r - quadrant * quarter_steps;  // 0 .. microsteps
+    if (quadrant % 2 == 1) q = quarter_steps - q;
+    const int i = std::min(static_cast<int>(q), microsteps - 1);
+    const double value = quarter[i] + (quarter[i + 1] - quarter[i]) * (q - i);
+    return quadrant >= 2 ? -value : value;
+  }
+
+  /// The phase targets ia* + j·ib* at position p (microsteps), A.
+  PhaseVector Targets(double position) const {
+    return peak_current * PhaseVector(Entry(position + microsteps), Entry(position));
+  }
+
+  static MicrostepTable FromAttributes(const AttributeSource& a, const MotorParams& motor,
+                                       bool interpolate_by_default) {
+    MicrostepTable t;
+    t.peak_current = std::sqrt(2.0) *
+                     a.Real(kAttrRunCurrent, motor.rated_current, AttributeSource::Rule::kPositive);
+    t.microsteps = a.Integer(kAttrMicrosteps, 16, 1, 256);
+    t.interpolate =
+        a.Choice(kAttrInterpolate, interpolate_by_default ? "on" : "off", {"on", "off"}) == "on";
+    if (auto q = a.Reals(kAttrCurrentTable, 0.0, 1.0, t.microsteps + 1, t.microsteps + 1)) {
+      t.quarter = *q;
+    }
+    return t;
+  }
+  static std::vector<const AttributeSpec*> Attributes() {
+    return {&kAttrRunCurrent, &kAttrMicrosteps, &kAttrInterpolate, &kAttrCurrentTable};
+  }
+};
+
+}  // namespace mjstepper
+
+#endif  // MJSTEPPER_CORE_CONTROLLERS_STEP_TABLE_H_

@@ -1,0 +1,95 @@
+#include "core/switching.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace mjstepper {
+namespace {
+
+constexpr double kNever = std::numeric_limits<double>::infinity();
+
+double Component(PhaseVector z, int phase) { return phase == 0 ? z.real() : z.imag(); }
+
+}  // namespace
+
+double PhaseSwitch::LevelAt(double t) const {
+  const double span = std::max(0.0, level_stop - armed_from);  // s
+  return level + level_slope * std::clamp(t - armed_from, 0.0, span);
+}
+
+double FirstCrossing(const MotorParams& p, const SpeedKernel& speed, PhaseVector current0,
+                     PhaseVector voltage, PhaseVector phasor0, int phase, int direction,
+                     double level0, double slope, double ramp, double from, double to) {
+  if (!(to >= from)) return kNever;
+  // i(τ) = A + B·e^{jΩτ} + C·e^{−aτ}  (winding.h)
+  const PhaseVector A = voltage / p.resistance;
+  const PhaseVector B = speed.emf_gain * phasor0;
+  const PhaseVector C = current0 - A - B;
+  const double a = speed.decay_rate;  // 1/s
+  const double W = speed.electrical;  // Ω, rad/s
+  const double sign = direction >= 0 ? 1.0 : -1.0;
+  // g(τ) = sign·(i(τ) − ℓ(τ)): the crossing is g's first root from below; dg/dτ if asked.
+  auto g = [&](double tau, double* slope_out) {
+    const PhaseVector rotation = UnitPhasor(W * tau);
+    const double decay = std::exp(-a * tau);
+    const double into_ramp = tau - from;  // s
+    const double level = level0 + slope * std::clamp(into_ramp, 0.0, ramp);
+    if (slope_out != nullptr) {
+      const double level_rate = into_ramp < ramp ? slope : 0.0;
+      *slope_out = sign * (Component(PhaseVector(0, W) * B * rotation, phase) -
+                           a * Component(C, phase) * decay - level_rate);
+    }
+    return sign * (Component(A + B * rotation + C * decay, phase) - level);
+  };
+  const double g_from = g(from, nullptr);
+  if (g_from >= 0) return from;  // already past the level when the comparator is armed
+  // Pieces of at most 0.5 rad of electrical rotation, split at the ramp's end (a kink of ℓ).
+  const double piece = W != 0 ? 0.5 / std::abs(W) : kNever;
+  const double kink = from + ramp;
+  double lo = from, g_lo = g_from;
+  while (lo < to) {
+    double hi = std::min(to, lo + piece);
+    if (kink > lo && kink < hi) hi = kink;
+    const double g_hi = g(hi, nullptr);
+    if (g_hi >= 0) {
+      // A root in (lo, hi]: safeguarded Newton from the secant point, keeping the bracket
+      // g(lo) < 0 <= g(hi); the answer is the bracket's upper end, where the level is reached.
+      double bad = lo, good = hi;
+      double x = lo - g_lo * (hi - lo) / (g_hi - g_lo);
+      for (int iteration = 0; iteration < 60 && good - bad > 1e-12; ++iteration) {
+        double dg = 0;
+        const double gx = g(x, &dg);
+        (gx >= 0 ? good : bad) = x;
+        double next = dg != 0 ? x - gx / dg : 0.5 * (bad + good);
+        if (!(next > bad && next < good)) next = 0.5 * (bad + good);
+        x = next;
+      }
+      return good;
+    }
+    lo = hi;
+    g_lo = g_hi;
+  }
+  return kNever;
+}
+
+double NextSwitchTime(const PhaseSwitch& sw, int phase, const MotorParams& p,
+                      const SpeedKernel& speed, PhaseVector current0, PhaseVector voltage,
+                      PhaseVector phasor0, double t, double t_end) {
+  double next = sw.has_until != 0 ? std::max(t, sw.until) : kNever;
+  if (next > t_end) next = kNever;
+  if (sw.has_level != 0) {
+    const double armed = std::max(t, sw.armed_from);  // s
+    const double horizon = std::min(t_end, next);
+    if (armed <= horizon) {
+      const double tau =
+          FirstCrossing(p, speed, current0, voltage, phasor0, phase, sw.direction >= 0 ? 1 : -1,
+                        sw.LevelAt(armed), sw.level_slope, std::max(0.0, sw.level_stop - armed),
+                        armed - t, horizon - t);
+      next = std::min(next, t + tau);
+    }
+  }
+  return next;
+}
+
+}  // namespace mjstepper
