@@ -17,7 +17,10 @@ using Rule = AttributeSource::Rule;
 constexpr AttributeSpec kAttrMotor{
     "motor", "name", "`tsui2009`", "—",
     "Preset (SPEC §4): `tsui2009` (hybrid 1.8°, 3 A, 1.27 N·m, detent h = 4, 2, 1), `kim2016` "
-    "(PM, PK268-02B class, reconstructed: Kim's Table 1 is lost), `bodson1993`."};
+    "(PM, PK268-02B class, reconstructed: Kim's Table 1 is lost), `bodson1993`; or a catalogue "
+    "motor from its datasheet (SPEC §8, Km = T_H/(√2·I_r), Kd4 = T_det): `qsh4218_35`, "
+    "`qsh4218_41`, `qsh4218_51` (NEMA 17, 1.8°), `qsh5718_51`, `qsh5718_76` (NEMA 23, 1.8°), "
+    "`17hm19_2004s` (NEMA 17, 0.9°), `17hs19_2004s1` (NEMA 17, 1.8°); see \"Motor presets\"."};
 constexpr AttributeSpec kAttrDrive{"drive", "name", "`current_microstep`", "—",
                                    "The controller; see \"Drives\" above."};
 constexpr AttributeSpec kAttrInput{
@@ -279,8 +282,13 @@ std::string PresetTableMarkdown() {
     for (const DetentHarmonic& h : m.detent) {
       detent.push_back(fmt::format("h {}: {:g} N·m", h.order, h.amplitude));
     }
+    const std::string what =
+        preset.datasheet
+            ? fmt::format("{}; from its datasheet: {}", preset.description,
+                          preset.datasheet->source)
+            : preset.description;
     out += fmt::format(fmt::runtime(kRow),
-                       name, preset.description, m.rotor_teeth, m.resistance,
+                       name, what, m.rotor_teeth, m.resistance,
                        m.inductance, m.torque_constant, m.rotor_inertia, m.viscous_damping,
                        m.static_friction, m.rated_current,
                        std::sqrt(2.0) * m.torque_constant * m.rated_current,

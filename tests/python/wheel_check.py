@@ -62,7 +62,13 @@ class WheelInAFreshEnvironment(unittest.TestCase):
         tsui = mjstepper.PRESETS["tsui2009"]
         self.assertEqual(tsui["rotor_inertia"], (0.36e-4, "kg·m²"))
         self.assertEqual(tsui["rated_current"], (3.0, "A"))
-        self.assertEqual(set(mjstepper.PRESETS), {"tsui2009", "kim2016", "bodson1993"})
+        self.assertEqual(set(mjstepper.PRESETS),
+                         {"tsui2009", "kim2016", "bodson1993",  # the papers (SPEC §4)
+                          "qsh4218_35", "qsh4218_41", "qsh4218_51", "qsh5718_51", "qsh5718_76",
+                          "17hm19_2004s", "17hs19_2004s1"})  # catalogue motors (SPEC §8)
+        # A catalogue motor's Km comes from its datasheet: T_H/(√2·I_r), QSH5718-76 1.89 N·m, 2.8 A.
+        self.assertAlmostEqual(mjstepper.PRESETS["qsh5718_76"]["torque_constant"][0],
+                               1.89 / (2 ** 0.5 * 2.8), places=12)
 
     def test_library_needs_only_mujoco_from_the_package(self):
         dynamic = subprocess.run(["readelf", "-d", mjstepper.LIBRARY], capture_output=True,
