@@ -21,8 +21,11 @@ constexpr AttributeSpec kAttrMotor{
     "motor from its datasheet (SPEC §8, Km = T_H/(√2·I_r), Kd4 = T_det): `qsh4218_35`, "
     "`qsh4218_41`, `qsh4218_51` (NEMA 17, 1.8°), `qsh5718_51`, `qsh5718_76` (NEMA 23, 1.8°), "
     "`17hm19_2004s` (NEMA 17, 0.9°), `17hs19_2004s1` (NEMA 17, 1.8°); see \"Motor presets\"."};
-constexpr AttributeSpec kAttrDrive{"drive", "name", "`current_microstep`", "—",
-                                   "The controller; see \"Drives\" above."};
+constexpr AttributeSpec kAttrDrive{
+    "drive", "name",
+    "`current_microstep`; with a `driver` chip, the chip's (`spreadcycle`, "
+    "`chopper`)",
+    "—", "The controller; see \"Drives\" above."};
 constexpr AttributeSpec kAttrInput{
     "input", "name", "`position`", "—",
     "`position`: ctrl is θcmd in rad (rotor side), or the target angle when `profile` is set. "
@@ -52,10 +55,11 @@ constexpr AttributeSpec kAttrDetent{
     "Detent harmonics of S-5 as triplets `order amplitude phase` separated by `;`, e.g. `4 0.006 "
     "0; 2 0.014 3.1416; 1 0.011 1.5708`, or `none`."};
 constexpr AttributeSpec kAttrBusVoltage{
-    "bus_voltage", "real", "48", "V",
+    "bus_voltage", "real", "48; 24 with a `driver` chip (a printer's supply)", "V",
     "Vbus of the bridges: \\|va\\|, \\|vb\\| ≤ Vbus (S-13), or the SVPWM range (S-14); every "
     "drive is limited by it. Tsui needs ≥ 19 V at 250 r/min, ≥ 145 V at 1920 r/min; Kim's "
-    "supply is 24 V."};
+    "supply is 24 V. With a `driver` chip, at most the chip's supply range (TMC2209 29 V, "
+    "TMC2130 46 V, TMC5160 60 V, A4988 35 V, DRV8825 45 V)."};
 constexpr AttributeSpec kAttrIsrPeriod{
     "isr_period", "real", "50e-6", "s",
     "Interrupt (control) period T: sample and compute at t_k = k·T (absolute time), S-15. May be "
@@ -108,13 +112,12 @@ constexpr AttributeSpec kAttrGauge{
 
 const std::vector<const AttributeSpec*>& DriveAttributes() {
   static const std::vector<const AttributeSpec*> list = {
-      &kAttrMotor,         &kAttrDrive,          &kAttrInput,          &kAttrRotorTeeth,
-      &kAttrResistance,    &kAttrInductance,     &kAttrTorqueConstant, &kAttrRotorInertia,
-      &kAttrDetent,
-      &kAttrBusVoltage,    &kAttrIsrPeriod,      &kAttrComputeDelay,   &kAttrPowerStage,
-      &kAttrEncoderCounts, &kAttrVelocityCutoff, &kAttrSpeedFeedback,  &kAttrProfile,
-      &kAttrProfileSpeed,  &kAttrProfileAccel,   &kAttrProfileJerk,    &kAttrProfileStart,
-      &kAttrGauge};
+      &kAttrMotor,        &kAttrDrive,         &kAttrInput,          &kAttrRotorTeeth,
+      &kAttrResistance,   &kAttrInductance,    &kAttrTorqueConstant, &kAttrRotorInertia,
+      &kAttrDetent,       &kAttrBusVoltage,    &kAttrIsrPeriod,      &kAttrComputeDelay,
+      &kAttrPowerStage,   &kAttrEncoderCounts, &kAttrVelocityCutoff, &kAttrSpeedFeedback,
+      &kAttrProfile,      &kAttrProfileSpeed,  &kAttrProfileAccel,   &kAttrProfileJerk,
+      &kAttrProfileStart, &kAttrGauge};
   return list;
 }
 
@@ -123,8 +126,8 @@ DriveConfig Parse(const AttributeSource& a) {
   const std::string motor = a.Raw(kAttrMotor).value_or("tsui2009");
   const std::optional<Preset> preset = FindPreset(motor);
   if (!preset) {
-    ThrowBad(kAttrMotor, motor, fmt::format("unknown preset; known: {}",
-                                            fmt::join(PresetNames(), ", ")));
+    ThrowBad(kAttrMotor, motor,
+             fmt::format("unknown preset; known: {}", fmt::join(PresetNames(), ", ")));
   }
   c.motor = preset->motor;
   c.motor.rotor_teeth = a.Integer(kAttrRotorTeeth, c.motor.rotor_teeth, 1, 1000);
@@ -138,7 +141,14 @@ DriveConfig Parse(const AttributeSource& a) {
   c.input = input == "velocity" ? InputMode::kVelocity
             : input == "steps"  ? InputMode::kSteps
                                 : InputMode::kPosition;
-  c.bus_voltage = a.Real(kAttrBusVoltage, c.bus_voltage, Rule::kPositive);
+  // A driver chip (driver_chip.h) picks the drive and bounds the supply.
+  const DriverChip* chip = FindDriver(a);
+  c.bus_voltage = a.Real(kAttrBusVoltage, chip != nullptr ? 24.0 : c.bus_voltage, Rule::kPositive);
+  if (chip != nullptr && c.bus_voltage > chip->max_bus_voltage) {
+    ThrowBad(kAttrBusVoltage, *a.Raw(kAttrBusVoltage),
+             fmt::format("exceeds {}'s supply range, at most {:g} V", chip->name,
+                         chip->max_bus_voltage));
+  }
   c.isr_period = a.Real(kAttrIsrPeriod, c.isr_period, Rule::kPositive);
   c.compute_delay = a.Real(kAttrComputeDelay, c.compute_delay, Rule::kNonNegative);
   if (!(c.compute_delay < c.isr_period)) {
@@ -167,15 +177,16 @@ DriveConfig Parse(const AttributeSource& a) {
     ThrowBad(kAttrProfile, profile,
              "a motion profile moves to a target angle: it needs input = position (ctrl in rad)");
   }
-  for (const AttributeSpec* spec : {&kAttrProfileSpeed, &kAttrProfileAccel, &kAttrProfileJerk,
-                                    &kAttrProfileStart}) {
+  for (const AttributeSpec* spec :
+       {&kAttrProfileSpeed, &kAttrProfileAccel, &kAttrProfileJerk, &kAttrProfileStart}) {
     if (c.profile.kind == ProfileKind::kNone && a.Raw(*spec)) {
       ThrowBad(*spec, *a.Raw(*spec), "has no effect without profile = trapezoid or scurve");
     }
   }
 
   const std::vector<std::string> names = ControllerNames();
-  const std::string drive = a.Choice(kAttrDrive, "current_microstep", names);
+  const std::string drive =
+      a.Choice(kAttrDrive, chip != nullptr ? chip->drive : "current_microstep", names);
   const DriveConstants constants{.rotor_teeth = c.motor.rotor_teeth,
                                  .resistance = c.motor.resistance,
                                  .inductance = c.motor.inductance,
@@ -282,16 +293,13 @@ std::string PresetTableMarkdown() {
     for (const DetentHarmonic& h : m.detent) {
       detent.push_back(fmt::format("h {}: {:g} N·m", h.order, h.amplitude));
     }
-    const std::string what =
-        preset.datasheet
-            ? fmt::format("{}; from its datasheet: {}", preset.description,
-                          preset.datasheet->source)
-            : preset.description;
-    out += fmt::format(fmt::runtime(kRow),
-                       name, what, m.rotor_teeth, m.resistance,
-                       m.inductance, m.torque_constant, m.rotor_inertia, m.viscous_damping,
-                       m.static_friction, m.rated_current,
-                       std::sqrt(2.0) * m.torque_constant * m.rated_current,
+    const std::string what = preset.datasheet
+                                 ? fmt::format("{}; from its datasheet: {}", preset.description,
+                                               preset.datasheet->source)
+                                 : preset.description;
+    out += fmt::format(fmt::runtime(kRow), name, what, m.rotor_teeth, m.resistance, m.inductance,
+                       m.torque_constant, m.rotor_inertia, m.viscous_damping, m.static_friction,
+                       m.rated_current, std::sqrt(2.0) * m.torque_constant * m.rated_current,
                        detent.empty() ? "none" : fmt::format("{}", fmt::join(detent, ", ")),
                        m.load_torque);
   }

@@ -74,6 +74,17 @@ double AttributeSource::Real(const AttributeSpec& spec, double fallback, Rule ru
   return value;
 }
 
+double AttributeSource::Real(const AttributeSpec& spec, double fallback, double low,
+                             double high) const {
+  const std::optional<std::string> raw = Raw(spec);
+  if (!raw) return fallback;
+  const double value = Real(spec, fallback, Rule::kAny);
+  if (!(value >= low && value <= high)) {
+    ThrowBad(spec, *raw, fmt::format("must be in [{:g}, {:g}] ({})", low, high, spec.unit));
+  }
+  return value;
+}
+
 int AttributeSource::Integer(const AttributeSpec& spec, int fallback, int low, int high) const {
   const std::optional<std::string> raw = Raw(spec);
   if (!raw) return fallback;
@@ -131,13 +142,13 @@ std::optional<std::vector<DetentHarmonic>> AttributeSource::Harmonics(
 }
 
 std::optional<std::vector<double>> AttributeSource::Reals(const AttributeSpec& spec, double low,
-                                                         double high, int min_count,
-                                                         int max_count) const {
+                                                          double high, int min_count,
+                                                          int max_count) const {
   const std::optional<std::string> raw = Raw(spec);
   if (!raw) return std::nullopt;
-  const std::string rule = fmt::format(
-      "expected {} to {} numbers in [{:g}, {:g}] separated by blanks or commas ({})", min_count,
-      max_count, low, high, spec.unit);
+  const std::string rule =
+      fmt::format("expected {} to {} numbers in [{:g}, {:g}] separated by blanks or commas ({})",
+                  min_count, max_count, low, high, spec.unit);
   std::string text = *raw;
   std::replace(text.begin(), text.end(), ',', ' ');
   std::stringstream fields(text);

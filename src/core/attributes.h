@@ -59,6 +59,8 @@ class AttributeSource {
 
   /// The number if set (checked against `rule`), else `fallback`.
   double Real(const AttributeSpec& spec, double fallback, Rule rule) const;
+  /// The number if set, in [low, high], else `fallback`.
+  double Real(const AttributeSpec& spec, double fallback, double low, double high) const;
   /// An integer in [low, high] if set, else `fallback`.
   int Integer(const AttributeSpec& spec, int fallback, int low, int high) const;
   /// One of `choices` if set, else `fallback`; the error lists the choices.

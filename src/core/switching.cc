@@ -18,6 +18,18 @@ double PhaseSwitch::LevelAt(double t) const {
   return level + level_slope * std::clamp(t - armed_from, 0.0, span);
 }
 
+void IdleBridge(double mode, double t, double current, double vbus, PhaseSwitch* sw) {
+  sw->mode = mode;
+  sw->mode_start = t;
+  sw->has_until = 0;
+  sw->voltage = current > 0 ? -vbus : current < 0 ? vbus : 0.0;
+  sw->has_level = current != 0 ? 1 : 0;
+  sw->direction = current > 0 ? -1 : 1;
+  sw->level = 0;
+  sw->level_slope = 0;
+  sw->armed_from = t;
+}
+
 double FirstCrossing(const MotorParams& p, const SpeedKernel& speed, PhaseVector current0,
                      PhaseVector voltage, PhaseVector phasor0, int phase, int direction,
                      double level0, double slope, double ramp, double from, double to) {

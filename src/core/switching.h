@@ -55,6 +55,12 @@ struct PhaseSwitch {
 static_assert(std::is_trivially_copyable_v<PhaseSwitch> &&
               sizeof(PhaseSwitch) % sizeof(double) == 0);
 
+/// A bridge that stops driving (a zero target): the current decays to 0 through the reversed
+/// bridge (fast decay, v = −sgn(i)·Vbus, until the comparator sees i = 0), then the winding is
+/// shorted; `mode` is the unit's own idle mode. Without it, the least on-time of a chopper would
+/// pump the current up to Vbus·t_blank/(R·t_off) against a target of 0.
+void IdleBridge(double mode, double t, double current, double vbus, PhaseSwitch* sw);
+
 /// The next event of a phase over [t, t_end] (s): the earlier of `until` and the first crossing of
 /// the comparator level after `armed_from`, or +infinity if neither falls in [t, t_end].
 /// The phase's current over that interval is the exact solution of S-3 (winding.h) from current0 at

@@ -17,6 +17,7 @@
 #include "cli.h"
 #include "config.h"
 #include "core/attributes.h"
+#include "core/controllers/driver_chip.h"
 #include "core/signals.h"
 #include "core/units.h"
 #include "identify.h"
@@ -92,11 +93,9 @@ int Info(const std::string& path) {
 // The README tables, made from the tables the parser and the sensors use.
 int WriteTables(const std::string& path) {
   const std::vector<std::pair<std::string, std::string>> sections = {
-      {"presets", plugin::PresetTableMarkdown()},
-      {"drives", plugin::DriveListMarkdown()},
-      {"attributes", plugin::AttributeTableMarkdown()},
-      {"signals", SignalTableMarkdown()},
-      {"options", OptionRangeTableMarkdown()}};
+      {"presets", plugin::PresetTableMarkdown()}, {"drives", plugin::DriveListMarkdown()},
+      {"drivers", DriverTableMarkdown()},         {"attributes", plugin::AttributeTableMarkdown()},
+      {"signals", SignalTableMarkdown()},         {"options", OptionRangeTableMarkdown()}};
   if (path.empty()) {
     for (const auto& [name, table] : sections) fmt::print("{}\n", table);
     return 0;

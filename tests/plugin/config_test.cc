@@ -186,5 +186,32 @@ TEST(Config, ReadmeTablesAreTheTables) {
   }
 }
 
+// Issue 17, driver presets: `driver` picks the chip's drive and a printer's 24 V, and refuses a
+// supply beyond the chip's range or a drive that does not read it.
+TEST(Config, DriverChipPicksTheDriveAndBoundsTheSupply) {
+  auto config = [](std::map<std::string, std::string> kv) {
+    kv["motor"] = "qsh4218_51";
+    kv["input"] = "steps";
+    return ParseMap(kv);
+  };
+  const auto tmc = config({{"driver", "tmc2209"}});
+  ASSERT_TRUE(std::holds_alternative<DriveConfig>(tmc)) << std::get<std::string>(tmc);
+  EXPECT_STREQ(ControllerName(std::get<DriveConfig>(tmc).controller), "spreadcycle");
+  EXPECT_EQ(std::get<DriveConfig>(tmc).bus_voltage, 24.0);
+  const auto allegro = config({{"driver", "a4988"}});
+  ASSERT_TRUE(std::holds_alternative<DriveConfig>(allegro));
+  EXPECT_STREQ(ControllerName(std::get<DriveConfig>(allegro).controller), "chopper");
+  const auto quiet = config({{"driver", "tmc5160"}, {"bus_voltage", "48"}});
+  ASSERT_TRUE(std::holds_alternative<DriveConfig>(quiet)) << std::get<std::string>(quiet);
+  const auto over = config({{"driver", "tmc2209"}, {"bus_voltage", "48"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(over));
+  EXPECT_THAT(std::get<std::string>(over),
+              AllOf(HasSubstr("bus_voltage"), HasSubstr("48"), HasSubstr("at most 29 V")));
+  const auto lab = config({{"driver", "tmc2209"}, {"drive", "current_microstep"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(lab));
+  EXPECT_THAT(std::get<std::string>(lab),
+              AllOf(HasSubstr("driver"), HasSubstr("not read by drive current_microstep")));
+}
+
 }  // namespace
 }  // namespace mjstepper::plugin

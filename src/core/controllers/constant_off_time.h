@@ -41,11 +41,11 @@ inline constexpr AttributeSpec kAttrOffTime{
     "low; t_off ≈ ROSC/825 µs with a resistor). Ignored when `pwm_frequency` > 0. In [1e-7, "
     "1e-3]."};
 inline constexpr AttributeSpec kAttrPwmFrequency{
-    "pwm_frequency", "real", "0", "Hz",
+    "pwm_frequency", "real", "0; 30e3 with `driver` = `drv8825`", "Hz",
     "`chopper`: 0 for a fixed off-time; > 0 for a fixed-frequency chopper whose period restarts "
     "the on phase (DRV8825: 30 kHz). At most 1 MHz."};
 inline constexpr AttributeSpec kAttrBlankTime{
-    "blank_time", "real", "1e-6 (A4988)", "s",
+    "blank_time", "real", "1e-6 (A4988); 3.75e-6 with `driver` = `drv8825`", "s",
     "`chopper`: the comparator is blind for this long after the bridge switches on, which is "
     "also the least on-time (A4988 ≈ 1 µs, DRV8825 3.75 µs). In [0, 1e-4]."};
 inline constexpr AttributeSpec kAttrDecay{
@@ -54,7 +54,7 @@ inline constexpr AttributeSpec kAttrDecay{
     "`mixed` (fast, then slow), or `auto` (mixed while the table's current falls, slow while it "
     "rises: both chips' default)."};
 inline constexpr AttributeSpec kAttrFastFraction{
-    "fast_fraction", "real", "0.3125 (A4988)", "—",
+    "fast_fraction", "real", "0.3125 (A4988); 0.75 with `driver` = `drv8825`", "—",
     "`chopper`: the fast part of mixed decay, as a fraction of the off-time (A4988: 31.25 %) or "
     "of the PWM period (DRV8825: fast until 75 % of the period). In [0, 1]."};
 
@@ -96,30 +96,29 @@ struct ConstantOffTime {
   }
   static ConstantOffTime FromAttributes(const AttributeSource& a, const MotorParams& motor,
                                         const DriveConstants&) {
-    using Rule = AttributeSource::Rule;
     ConstantOffTime c;
+    // An A4988 or DRV8825 (driver_chip.h) sets the timing defaults; none: the A4988's.
+    const DriverChip* chip = FindDriver(a);
+    if (chip != nullptr && chip->clock_frequency > 0) {
+      ThrowBad(kAttrDriver, chip->name,
+               "is a Trinamic chip: use drive = spreadcycle (or stealthchop)");
+    }
+    if (chip != nullptr) {
+      c.off_time = chip->off_time > 0 ? chip->off_time : c.off_time;
+      c.pwm_frequency = chip->pwm_frequency;
+      c.blank_time = chip->blank_time;
+      c.fast_fraction = chip->fast_fraction;
+    }
     c.table = MicrostepTable::FromAttributes(a, motor, /*interpolate_by_default=*/false);
-    c.off_time = a.Real(kAttrOffTime, c.off_time, Rule::kPositive);
-    if (!(c.off_time >= 1e-7 && c.off_time <= 1e-3)) {
-      ThrowBad(kAttrOffTime, *a.Raw(kAttrOffTime), "must be in [1e-7, 1e-3] (s)");
-    }
-    c.pwm_frequency = a.Real(kAttrPwmFrequency, 0.0, Rule::kNonNegative);
-    if (c.pwm_frequency > 1e6) {
-      ThrowBad(kAttrPwmFrequency, *a.Raw(kAttrPwmFrequency), "must be in [0, 1e6] (Hz)");
-    }
-    c.blank_time = a.Real(kAttrBlankTime, c.blank_time, Rule::kNonNegative);
-    if (c.blank_time > 1e-4) {
-      ThrowBad(kAttrBlankTime, *a.Raw(kAttrBlankTime), "must be in [0, 1e-4] (s)");
-    }
+    c.off_time = a.Real(kAttrOffTime, c.off_time, 1e-7, 1e-3);
+    c.pwm_frequency = a.Real(kAttrPwmFrequency, c.pwm_frequency, 0.0, 1e6);
+    c.blank_time = a.Real(kAttrBlankTime, c.blank_time, 0.0, 1e-4);
     const std::string decay = a.Choice(kAttrDecay, "auto", {"slow", "fast", "mixed", "auto"});
     c.decay = decay == "slow"    ? Decay::kSlow
               : decay == "fast"  ? Decay::kFast
               : decay == "mixed" ? Decay::kMixed
                                  : Decay::kAuto;
-    c.fast_fraction = a.Real(kAttrFastFraction, c.fast_fraction, Rule::kNonNegative);
-    if (c.fast_fraction > 1) {
-      ThrowBad(kAttrFastFraction, *a.Raw(kAttrFastFraction), "must be in [0, 1]");
-    }
+    c.fast_fraction = a.Real(kAttrFastFraction, c.fast_fraction, 0.0, 1.0);
     return c;
   }
 
@@ -164,7 +163,7 @@ struct ConstantOffTime {
         if (sw.mode == kOn || (sw.mode == kIdle && sw.target != 0)) {
           StartOn(t, /*restart=*/sw.mode == kIdle, vbus, &sw);
         } else if (sw.target == 0 && sw.mode != kIdle) {
-          Idle(t, current, vbus, &sw);
+          IdleBridge(kIdle, t, current, vbus, &sw);
         }
         return;
       case SwitchReason::kLevel:
@@ -210,24 +209,8 @@ struct ConstantOffTime {
     return (std::floor(t * pwm_frequency + 1e-9) + 1) * period;
   }
 
-  // A zero table entry (a full-step position of the other phase's peak): the bridge does not
-  // drive, the current decays through it to 0 (modelled as fast decay to 0, then the winding
-  // shorted); on a target that is not 0 it starts on again. Without this, the least on-time would
-  // pump the current up to Vbus·t_blank/(R·t_off) against a target of 0.
-  void Idle(double t, double current, double vbus, PhaseSwitch* sw) const {
-    sw->mode = kIdle;
-    sw->mode_start = t;
-    sw->has_until = 0;
-    sw->voltage = current > 0 ? -vbus : current < 0 ? vbus : 0.0;
-    sw->has_level = current != 0 ? 1 : 0;
-    sw->direction = current > 0 ? -1 : 1;
-    sw->level = 0;
-    sw->level_slope = 0;
-    sw->armed_from = t;
-  }
-
   void StartOn(double t, bool restart, double vbus, PhaseSwitch* sw) const {
-    if (sw->target == 0) return Idle(t, 0.0, vbus, sw);
+    if (sw->target == 0) return IdleBridge(kIdle, t, 0.0, vbus, sw);
     const double sign = sw->target >= 0 ? 1.0 : -1.0;
     sw->mode = kOn;
     sw->voltage = sign * vbus;

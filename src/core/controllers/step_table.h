@@ -14,12 +14,15 @@
 #ifndef MJSTEPPER_CORE_CONTROLLERS_STEP_TABLE_H_
 #define MJSTEPPER_CORE_CONTROLLERS_STEP_TABLE_H_
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <vector>
 
 #include "core/controllers/controller.h"
+#include "core/controllers/driver_chip.h"
 
 namespace mjstepper {
 
@@ -35,7 +38,9 @@ inline constexpr AttributeSpec kAttrRunCurrent{
     "Phase current of the chopper and StealthChop drives as Klipper and Trinamic state it: the "
     "RMS of the sine, so the table's peak is √2·run_current. The default, the datasheet's rated "
     "current I_r, gives the rated holding torque √2·Km·I_r and the rated copper loss 2·R·I_r² "
-    "(both phases at I_r, full step); > 0."};
+    "(both phases at I_r, full step), or, with a `driver` chip, the most the chip's sense resistor "
+    "regulates if that is less. A chip rounds it to its own steps (TMC: CS and vsense, or "
+    "GLOBALSCALER), and refuses a request beyond its most or more than 10 % from any step; > 0."};
 
 inline constexpr AttributeSpec kAttrInterpolate{
     "interpolate", "name", "`on` (TMC drives), `off` (A4988/DRV8825 class)", "—",
@@ -116,11 +121,41 @@ struct MicrostepTable {
     return peak_current * PhaseVector(Entry(position + microsteps), Entry(position));
   }
 
+  /// From the attributes; a `driver` chip (driver_chip.h) sets the interpolation default and
+  /// rounds `run_current` to the current its sense resistor can set.
   static MicrostepTable FromAttributes(const AttributeSource& a, const MotorParams& motor,
                                        bool interpolate_by_default) {
     MicrostepTable t;
-    t.peak_current = std::sqrt(2.0) *
-                     a.Real(kAttrRunCurrent, motor.rated_current, AttributeSource::Rule::kPositive);
+    const DriverChip* chip = FindDriver(a);
+    double run_current =
+        a.Real(kAttrRunCurrent, motor.rated_current, AttributeSource::Rule::kPositive);  // A RMS
+    if (chip != nullptr) {
+      const double r_sense = a.Real(kAttrSenseResistor, chip->sense_resistor, 0.01, 1.0);  // Ω
+      // Unset, the rated current, or the chip's most if that is less (a 2 A motor on a TMC2209
+      // module, whose 0.110 Ω allow 1.77 A RMS, runs at 1.77 A as Klipper would clamp it).
+      if (!a.Raw(kAttrRunCurrent)) {
+        run_current = std::min(run_current, chip->Regulate(run_current, r_sense).most);
+      }
+      const DriverChip::Regulation r = chip->Regulate(run_current, r_sense);
+      const std::string raw =
+          a.Raw(kAttrRunCurrent)
+              .value_or(fmt::format("{:g} (the motor's rated current)", run_current));
+      if (run_current > r.most * 1.001) {
+        ThrowBad(kAttrRunCurrent, raw,
+                 fmt::format("{} with sense_resistor {:g} Ω regulates at most {:.3g} A RMS",
+                             chip->name, r_sense, r.most));
+      }
+      // Below the chip's least step the request cannot be followed: say so, do not round by 2×.
+      if (std::abs(r.current - run_current) > 0.1 * run_current) {
+        ThrowBad(kAttrRunCurrent, raw,
+                 fmt::format("{} with sense_resistor {:g} Ω sets {:.3g} A RMS, more than 10 % "
+                             "away; choose a larger sense_resistor",
+                             chip->name, r_sense, r.current));
+      }
+      run_current = r.current;
+      interpolate_by_default = chip->interpolate;
+    }
+    t.peak_current = std::sqrt(2.0) * run_current;
     t.microsteps = a.Integer(kAttrMicrosteps, 16, 1, 256);
     t.interpolate =
         a.Choice(kAttrInterpolate, interpolate_by_default ? "on" : "off", {"on", "off"}) == "on";
@@ -130,7 +165,8 @@ struct MicrostepTable {
     return t;
   }
   static std::vector<const AttributeSpec*> Attributes() {
-    return {&kAttrRunCurrent, &kAttrMicrosteps, &kAttrInterpolate, &kAttrCurrentTable};
+    return {&kAttrDriver,     &kAttrRunCurrent,  &kAttrSenseResistor,
+            &kAttrMicrosteps, &kAttrInterpolate, &kAttrCurrentTable};
   }
 };
 
