@@ -74,9 +74,19 @@ CommandProfile CommandProfile::Parse(std::string_view text) {
   if (open == std::string::npos || close == std::string::npos || close < open ||
       !Trim(whole.substr(close + 1)).empty()) {
     throw std::invalid_argument(fmt::format(
-        "profile \"{}\": expected constant(…), ramp(…, …, …) or trapezoid(…, …, …, …)", whole));
+        "profile \"{}\": expected constant(…), ramp(…, …, …), trapezoid(…, …, …, …) or "
+        "steps(FILE)",
+        whole));
   }
   const std::string name = Trim(whole.substr(0, open));
+  if (name == "steps") {  // a file of step times, not quantities
+    CommandProfile p;
+    p.text_ = whole;
+    p.kind_ = Kind::kStepList;
+    p.steps_ = std::make_shared<const StepTimes>(
+        StepTimes::Read(Trim(whole.substr(open + 1, close - open - 1))));
+    return p;
+  }
   std::vector<Quantity> args;
   std::string inner = whole.substr(open + 1, close - open - 1);
   size_t start = 0;
@@ -121,13 +131,15 @@ CommandProfile CommandProfile::Parse(std::string_view text) {
     p.t2_ = args[2].value;
     p.t3_ = args[3].value;
   } else {
-    throw bad("constant(…), ramp(…, …, …) or trapezoid(…, …, …, …)");
+    throw bad("constant(…), ramp(…, …, …), trapezoid(…, …, …, …) or steps(FILE)");
   }
   return p;
 }
 
-double CommandProfile::Speed(double t) const {
+double CommandProfile::Speed(double t, double step_angle) const {
   switch (kind_) {
+    case Kind::kStepList:
+      return steps_->Rate(t) * step_angle;
     case Kind::kConstantSpeed:
       return a_;
     case Kind::kAngleHold:
@@ -147,8 +159,10 @@ double CommandProfile::Speed(double t) const {
   return 0.0;
 }
 
-double CommandProfile::Angle(double t) const {
+double CommandProfile::Angle(double t, double step_angle) const {
   switch (kind_) {
+    case Kind::kStepList:
+      return steps_->Count(t) * step_angle;
     case Kind::kConstantSpeed:
       return a_ * t;
     case Kind::kAngleHold:
@@ -177,6 +191,11 @@ double CommandProfile::Angle(double t) const {
 double CommandProfile::ControlForStep(double t, double h, InputMode input, double theta_start,
                                       double step_angle) const {
   if (input == InputMode::kVelocity) return (Angle(t + h) - Angle(t)) / h;
+  if (kind_ == Kind::kStepList) {  // the count of the start angle, plus the list's count
+    const double start = step_angle > 0 ? std::round(theta_start / step_angle) : 0.0;
+    return input == InputMode::kSteps ? start + steps_->Count(t + h)
+                                      : theta_start + Angle(t + 0.5 * h, step_angle);
+  }
   if (input == InputMode::kSteps) {
     const double angle = (absolute_angle() ? 0.0 : theta_start) + Angle(t + h);  // rad
     return step_angle > 0 ? std::round(angle / step_angle) : 0.0;

@@ -4,13 +4,17 @@
 //   ramp(0rpm, 200rpm, 0.8s)         speed ramp, then hold the final speed
 //   ramp(0rad, 3.1416rad, 1s)        angle ramp (constant speed), then hold the final angle
 //   trapezoid(200rpm, 0.2s, 0.5s, 0.2s)  0 → peak in Ta, cruise Tc, → 0 in Td, then rest
+//   steps(moves.txt)                 STEP/DIR pulses from a step-time list (step_times.h), for
+//                                    drives with input = steps: the count at t
 #ifndef MJSTEPPER_CORE_COMMAND_PROFILE_H_
 #define MJSTEPPER_CORE_COMMAND_PROFILE_H_
 
+#include <memory>
 #include <string>
 #include <string_view>
 
 #include "core/drive.h"
+#include "core/step_times.h"
 
 namespace mjstepper {
 
@@ -28,10 +32,13 @@ class CommandProfile {
   /// beyond the bounds above).
   static CommandProfile Parse(std::string_view text);
 
-  /// Commanded speed at t, rad/s.
-  double Speed(double t) const;
-  /// Commanded angle at t, rad: absolute for angle profiles, relative to t = 0 for speed profiles.
-  double Angle(double t) const;
+  /// Commanded speed at t, rad/s; a step list's step rate times `step_angle` (rad per microstep).
+  double Speed(double t, double step_angle = 0) const;
+  /// Commanded angle at t, rad: absolute for angle profiles, relative to t = 0 for speed profiles
+  /// and step lists (count·step_angle).
+  double Angle(double t, double step_angle = 0) const;
+  /// True for steps(FILE): a STEP/DIR stream, only for drives with input = steps.
+  bool step_list() const { return kind_ == Kind::kStepList; }
   /// True for angle profiles (constant(…rad), ramp(…rad, …rad, T)).
   bool absolute_angle() const { return kind_ == Kind::kAngleHold || kind_ == Kind::kAngleRamp; }
 
@@ -46,11 +53,12 @@ class CommandProfile {
   const std::string& text() const { return text_; }
 
  private:
-  enum class Kind { kConstantSpeed, kAngleHold, kSpeedRamp, kAngleRamp, kTrapezoid };
+  enum class Kind { kConstantSpeed, kAngleHold, kSpeedRamp, kAngleRamp, kTrapezoid, kStepList };
   Kind kind_ = Kind::kConstantSpeed;
   double a_ = 0, b_ = 0;             // speeds (rad/s) or angles (rad)
   double t1_ = 0, t2_ = 0, t3_ = 0;  // s
   std::string text_;
+  std::shared_ptr<const StepTimes> steps_;  // kStepList
 };
 
 }  // namespace mjstepper

@@ -54,8 +54,8 @@ void Validate(const DriveConfig& c) {
   Require(c.bus_voltage > 0 && std::isfinite(c.bus_voltage), "bus_voltage", c.bus_voltage,
           "must be finite and > 0 (V)");
   if (const auto* v = std::get_if<VoltageMicrostep>(&c.controller)) {
-    Require(v->voltage_amplitude > 0 && v->voltage_amplitude <= c.bus_voltage,
-            "voltage_amplitude", v->voltage_amplitude, "must be > 0 and <= bus_voltage (V)");
+    Require(v->voltage_amplitude > 0 && v->voltage_amplitude <= c.bus_voltage, "voltage_amplitude",
+            v->voltage_amplitude, "must be > 0 and <= bus_voltage (V)");
   }
   const bool switching = std::visit(
       [](const auto& unit) { return SwitchingUnit<std::decay_t<decltype(unit)>>; }, c.controller);
@@ -146,16 +146,15 @@ Drive::Drive(DriveConfig config) : config_(std::move(config)) {
   velocity_estimator_ = {.period = config_.isr_period, .cutoff = config_.velocity_cutoff};
   velocity_gain_ = velocity_estimator_.Gain();  // S-17, once at load
   // The interval lengths the clock produces when steps are multiples of T: T, D and T − D.
-  for (double length : {config_.isr_period, config_.compute_delay,
-                        config_.isr_period - config_.compute_delay}) {
+  for (double length :
+       {config_.isr_period, config_.compute_delay, config_.isr_period - config_.compute_delay}) {
     if (length > 0) decay_kernels_.push_back(DecayKernel(motor, length));
   }
 }
 
 DriveState Drive::Load(const double* values) const {
   DriveState s;
-  std::memcpy(static_cast<void*>(static_cast<DriveCoreState*>(&s)), values,
-              sizeof(DriveCoreState));
+  std::memcpy(static_cast<void*>(static_cast<DriveCoreState*>(&s)), values, sizeof(DriveCoreState));
   std::copy_n(values + layout_.core, layout_.controller + layout_.profile, s.unit.begin());
   return s;
 }
@@ -174,14 +173,14 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   const bool holds_command =
       config_.input == InputMode::kPosition && config_.profile.kind == ProfileKind::kNone;
   s.theta_cmd = config_.input == InputMode::kSteps ? command * step_angle_
-                : holds_command                      ? command
-                                                     : theta;
+                : holds_command                    ? command
+                                                   : theta;
   const PhaseVector current = std::visit(
       [&](const auto& unit) {
         using C = std::decay_t<decltype(unit)>;
         typename C::State state{};
-        const PhaseVector i = unit.Rest(constants_, {.theta = theta, .theta_cmd = s.theta_cmd},
-                                        &state);
+        const PhaseVector i =
+            unit.Rest(constants_, {.theta = theta, .theta_cmd = s.theta_cmd}, &state);
         Pack(state, s.unit.data());
         return i;
       },
@@ -193,6 +192,20 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   // The rotor starts in the cycle nearest its command: that is where it is, not a slip.
   s.slip_cell = s.slip_origin = std::round(constants_.rotor_teeth * (s.theta_cmd - theta) / kTwoPi);
   s.last_slip_time = -1;
+  s.stallguard = std::visit(
+      [](const auto& unit) {
+        if constexpr (requires { unit.stallguard; }) {
+          return unit.stallguard.version != 0 ? unit.stallguard.FullScale() : 0.0;
+        } else {
+          return 0.0;
+        }
+      },
+      config_.controller);
+  s.first_stall_time = -1;
+  s.full_step = FullStep(s.theta_cmd);
+  s.full_step_time = -1;
+  s.full_step_theta = theta;
+  s.current_scale = 1;
   // At rest v = R·i holds the current constant (S-3 with ω = 0); a switching bridge starts its
   // chopper cycle there instead (switching.h).
   PhaseVector voltage = config_.motor.resistance * current;
@@ -352,9 +365,8 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   // STEP/DIR: the count's angle, reached at the step's end along a line (pulses spread evenly).
   const bool steps = config_.input == InputMode::kSteps;
   const double target = steps ? command * step_angle_ : command;  // rad
-  const double omega_cmd = config_.input == InputMode::kVelocity
-                               ? command
-                               : (h > 0 ? (target - theta_cmd0) / h : 0.0);
+  const double omega_cmd =
+      config_.input == InputMode::kVelocity ? command : (h > 0 ? (target - theta_cmd0) / h : 0.0);
   auto command_at = [&](double t) -> CommandSample {  // t from `origin`
     if (profiled) return config_.profile.Evaluate(plan, origin + t);
     if (config_.input == InputMode::kVelocity || steps) {
@@ -440,11 +452,38 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
       // Encoder (S-16) and the backward-difference velocity estimate (S-17), every tick.
       const double theta_meas = EncoderAngle(theta_at(t), config_.encoder_counts);
       velocity_estimator_.Update(velocity_gain_, theta_meas, &s->theta_meas, &s->omega_est);
+      const CommandSample command = command_at(t);
+      if constexpr (requires { controller.stallguard; }) {
+        // StallGuard measures once per full step (sensors/stallguard.h), from the rotor's mean
+        // speed over it; CoolStep follows. The step rate is the chip's (TSTEP): one full step
+        // over the time since the last.
+        const StallGuard& guard = controller.stallguard;
+        const double step = FullStep(command.theta);
+        if (guard.version != 0 && step != s->full_step) {
+          const double now = origin + t;                // s
+          const double theta_now = theta_at(t);         // rad
+          const double span = now - s->full_step_time;  // s
+          const bool timed = s->full_step_time >= 0 && span > 0;
+          const double step_rate =
+              timed ? std::abs(step - s->full_step) * kTwoPi / (4 * constants_.rotor_teeth) / span
+                    : 0.0;                                                               // rad/s
+          const double speed = timed ? (theta_now - s->full_step_theta) / span : omega;  // rad/s
+          s->full_step = step;
+          s->full_step_time = now;
+          s->full_step_theta = theta_now;
+          s->stallguard = guard.Result(constants_.torque_constant, speed, current,
+                                       UnitPhasor(constants_.rotor_teeth * theta_now));
+          s->stall = guard.Stall(s->stallguard, step_rate) ? 1 : 0;
+          if (s->stall != 0 && s->first_stall_time < 0) s->first_stall_time = now;
+          guard.CoolStep(s->stallguard, step_rate, &s->current_scale, &s->coolstep_count);
+        }
+      }
       const Sample sample{
-          .command = command_at(t),
+          .command = command,
           .feedback = {.theta = theta_meas,
                        .omega = speed_feedback_ == SpeedFeedback::kExact ? omega : s->omega_est},
           .current = current,
+          .current_scale = s->current_scale,
           .tick = k};
       const TickOutput out = controller.Tick(constants_, C::Input::From(sample), stage_, &unit);
       // A switching unit's tick gives the phases' new targets, a voltage controller's the voltage.
@@ -485,7 +524,7 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
     long events = 0;
     while (true) {
       const double t_apply = s->pending ? apply_at : kNever;
-      const double t_tick = anchor + n * period;  // t_k − origin
+      const double t_tick = anchor + n * period;             // t_k − origin
       const int p_next = t_switch[1] < t_switch[0] ? 1 : 0;  // the phase that switches first
       const double t_event = std::min({t_apply, t_tick, t_switch[p_next]});
       // Events in [t0, t1 − eps] belong to this step; one within eps of t1 is the next step's, so
@@ -507,7 +546,7 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
           switch_phase(p_next, timed ? SwitchReason::kTime : SwitchReason::kLevel);
           predict(p_next);
         }
-      } else if (t_apply <= t_tick) {  // S-15: v[k−1] reaches the phases at t_{k−1} + D
+      } else if (t_apply <= t_tick) {      // S-15: v[k−1] reaches the phases at t_{k−1} + D
         if constexpr (SwitchingUnit<C>) {  // the tick's targets reach the comparators
           C::SetTarget(0, s->pending_a, &unit);
           C::SetTarget(1, s->pending_b, &unit);
@@ -550,6 +589,10 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
   return bounded;
 }
 
+double Drive::FullStep(double theta_cmd) const {
+  return std::floor(4.0 * constants_.rotor_teeth * theta_cmd / kTwoPi);  // S-1: 4 per cycle
+}
+
 DecayKernel Drive::DecayFor(double length) const {
   for (const DecayKernel& k : decay_kernels_) {
     if (std::abs(length - k.h) <= 1e-9 * length) return k;
@@ -581,9 +624,9 @@ double Drive::Torque(const DriveCoreState& s, double theta) const {
 double Drive::StoredTorque(const double* values, double theta) const {
   using S = DriveCoreState;  // standard layout, all doubles: a field is values[offset / 8]
   auto field = [values](std::size_t offset) { return values[offset / sizeof(double)]; };
-  const PhaseVector z = RotorPhasor(
-      field(offsetof(S, started)) != 0, field(offsetof(S, theta)),
-      {field(offsetof(S, rotor_cos)), field(offsetof(S, rotor_sin))}, theta);
+  const PhaseVector z =
+      RotorPhasor(field(offsetof(S, started)) != 0, field(offsetof(S, theta)),
+                  {field(offsetof(S, rotor_cos)), field(offsetof(S, rotor_sin))}, theta);
   const auto [torque_em, torque_detent] =
       Torques({field(offsetof(S, current_a)), field(offsetof(S, current_b))}, z);
   return torque_em + torque_detent;
@@ -615,6 +658,10 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
   out.energy_mechanical = s.energy_mechanical;
   out.theta_meas = s.theta_meas;
   out.omega_est = s.omega_est;
+  out.stallguard = s.stallguard;
+  out.stall = s.stall;
+  out.first_stall_time = s.first_stall_time;
+  out.current_scale = s.current_scale;
   return out;
 }
 

@@ -175,11 +175,20 @@ struct DriveCoreState {
   double energy_input = 0;       ///< J, ∫(va·ia + vb·ib) dt since the start
   double energy_copper = 0;      ///< J, ∫R·(ia² + ib²) dt
   double energy_mechanical = 0;  ///< J, ∫τm·ω dt
-  double rotor_cos = 0;          ///< cos(Nr·θ): e^{jx} at `theta`, kept with it so that a step and
-  double rotor_sin = 0;          ///< sin(Nr·θ)  the torque after it share one sincos (S-1)
-  double slip_cell = 0;          ///< k of the cycle δ ≈ 2π·k the rotor sits in (SlipCell)
-  double slip_origin = 0;        ///< slip_cell at the start: slips = slip_cell − slip_origin
-  double last_slip_time = -1;    ///< s, end of the step of the last slip; −1: none yet
+  double rotor_cos = 0;        ///< cos(Nr·θ): e^{jx} at `theta`, kept with it so that a step and
+  double rotor_sin = 0;        ///< sin(Nr·θ)  the torque after it share one sincos (S-1)
+  double slip_cell = 0;        ///< k of the cycle δ ≈ 2π·k the rotor sits in (SlipCell)
+  double slip_origin = 0;      ///< slip_cell at the start: slips = slip_cell − slip_origin
+  double last_slip_time = -1;  ///< s, end of the step of the last slip; −1: none yet
+  // StallGuard and CoolStep (sensors/stallguard.h), for drives that have them:
+  double stallguard = 0;         ///< SG_RESULT at the last full step (full scale at rest)
+  double stall = 0;              ///< 1 while SG_RESULT flags a stall
+  double first_stall_time = -1;  ///< s, the tick of the first stall flag; −1: none yet
+  double full_step = 0;          ///< the full step (floor of 4·Nr·θcmd/2π) last measured at
+  double full_step_time = -1;    ///< s, the tick it began at; −1: not yet (from rest)
+  double full_step_theta = 0;    ///< rad, the rotor angle then
+  double current_scale = 1;      ///< CoolStep's scale of the run current
+  double coolstep_count = 0;     ///< readings above the upper band since the last fall
 
   PhaseVector current() const { return {current_a, current_b}; }
   PhaseVector rotor_phasor() const { return {rotor_cos, rotor_sin}; }
@@ -227,9 +236,13 @@ struct DriveSignals {
   double position_error = 0;                    ///< θ − θcmd, rad (rotor side): e1 of K(20)
   double lost_steps = 0;                        ///< full steps slipped (4 per cycle), signed
   double last_slip_time = -1;                   ///< s; −1 before the first slip
+  double stallguard = 0;                        ///< SG_RESULT (counts)
+  double stall = 0;                             ///< 1 while flagged
+  double first_stall_time = -1;                 ///< s; −1 before the first stall flag
+  double current_scale = 1;                     ///< CoolStep's scale
   double energy_input = 0, energy_copper = 0, energy_mechanical = 0;  ///< J
-  double theta_meas = 0;                        ///< rad, encoder angle at the last tick
-  double omega_est = 0;                         ///< rad/s, velocity estimate at the last tick
+  double theta_meas = 0;  ///< rad, encoder angle at the last tick
+  double omega_est = 0;   ///< rad/s, velocity estimate at the last tick
 };
 
 class Drive {
@@ -326,6 +339,9 @@ class Drive {
   // by Horner's rule.
   std::pair<double, double> Torques(PhaseVector current, PhaseVector z) const;
 
+  // The full step a commanded angle (rad) is in: floor(4·Nr·θcmd/2π), S-1.
+  double FullStep(double theta_cmd) const;
+
   // The decay part of an interval's kernel (winding.h): from decay_kernels_ for the clock's own
   // lengths, else computed.
   DecayKernel DecayFor(double length) const;
@@ -336,8 +352,8 @@ class Drive {
   StateLayout layout_;
   PowerStage stage_;
   SpeedFeedback speed_feedback_ = SpeedFeedback::kEstimate;
-  VelocityEstimator velocity_estimator_;  // S-17
-  double velocity_gain_ = 0;              // its a = 1 − exp(−2π·fc·T), computed once
+  VelocityEstimator velocity_estimator_;    // S-17
+  double velocity_gain_ = 0;                // its a = 1 − exp(−2π·fc·T), computed once
   std::vector<DecayKernel> decay_kernels_;  // for T, D and T − D, computed once
   double step_angle_ = 0;                   // rad per microstep (StepAngle)
 };

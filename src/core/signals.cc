@@ -51,6 +51,21 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
        "its start value",
        &S::theta_meas},
       {"omega_est", "rad/s", "velocity estimate at the last interrupt (S-17)", &S::omega_est},
+      {"stallguard", "counts",
+       "SG_RESULT of the StallGuard model (sensors/stallguard.h): 0..1023 (StallGuard2, "
+       "`spreadcycle` on tmc2130/5160) or 0..510 (StallGuard4, `stealthchop` on tmc2209) from "
+       "Km·|ω|·cos δi at each full step, full scale at rest; 0 for drives without StallGuard",
+       &S::stallguard},
+      {"stall", "0/1",
+       "1 while SG_RESULT flags a stall (StallGuard2: 0; StallGuard4: ≤ 2·SGTHRS) above "
+       "`stallguard_min_speed`: the chip's DIAG output",
+       &S::stall},
+      {"first_stall_time", "s", "time of the interrupt that first flagged a stall; −1: none yet",
+       &S::first_stall_time},
+      {"current_scale", "—",
+       "CoolStep's scale of the run current (1 without CoolStep): the table's peak is "
+       "√2·run_current·current_scale",
+       &S::current_scale},
   }};
   return table;
 }
@@ -74,8 +89,8 @@ std::string SignalTableMarkdown() {
   std::string out = "| # | name | unit | meaning |\n|---|---|---|---|\n";
   const auto& table = SignalTable();
   for (int i = 0; i < kNumSignals; ++i) {
-    out += fmt::format("| {} | `{}` | {} | {} |\n", i, table[i].name, table[i].unit,
-                       table[i].meaning);
+    out +=
+        fmt::format("| {} | `{}` | {} | {} |\n", i, table[i].name, table[i].unit, table[i].meaning);
   }
   return out;
 }

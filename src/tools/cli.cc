@@ -45,7 +45,8 @@ CommandLine::CommandLine() : app_("mjstepper: stepper motors and their drives on
   run_->add_option("--ctrl", ctrl_,
                    "ACTUATOR=PROFILE, e.g. 'shaft=ramp(0rpm,200rpm,0.8s)'; profiles: constant(X), "
                    "ramp(A,B,T), trapezoid(V,Ta,Tc,Td); units rpm, rad/s, rad, deg, s; speeds "
-                   "within ±1e4 rad/s, angles ±1e7 rad, times 1e6 s");
+                   "within ±1e4 rad/s, angles ±1e7 rad, times 1e6 s; or steps(FILE), a "
+                   "STEP/DIR list (one step time in s per line, optionally +1/-1) for input=steps");
   run_->add_option("--log", c.run.log, "CSV log (a regular file or nothing; written whole)");
   run_->add_option("--render", c.run.render.video, "MP4 video of the run (ffmpeg)");
   run_->add_option("--frames", c.run.render.frames_dir, "folder for PNG frames");

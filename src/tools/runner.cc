@@ -90,6 +90,12 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
           "{}.input=position",
           s.name, profiles.back().text(), s.name, s.name));
     }
+    if (profiles.back().step_list() && s.config.input != InputMode::kSteps) {
+      throw std::invalid_argument(fmt::format(
+          "--ctrl {}={}: a step list is STEP/DIR pulses; set {}.input=steps (with a chopper "
+          "drive or a driver chip)",
+          s.name, profiles.back().text(), s.name));
+    }
     theta_start.push_back(d->actuator_length[s.outadr]);
   }
   for (const auto& [name, text] : options.ctrl) {
@@ -165,7 +171,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
       // With the drive's own motion profile, ctrl is a target and the command is the drive's.
       static const int kOmegaCmd = SignalIndex("omega_cmd");
       const double omega_cmd = s.config.profile.kind == ProfileKind::kNone
-                                   ? profiles[i].Speed(t - t_begin)
+                                   ? profiles[i].Speed(t - t_begin, StepAngle(s.config))
                                    : signals[kOmegaCmd];
       const double error = omega - omega_cmd;
       StepperSummary& sum = result.steppers[i];

@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <stdexcept>
 
 #include "core/units.h"
@@ -52,6 +55,64 @@ TEST(CommandProfile, BadTextNamesTheProblem) {
       EXPECT_THAT(e.what(), HasSubstr(text)) << e.what();
     }
   }
+}
+
+// Issue 17: a STEP/DIR stream as a motion controller emits it, one step time per line.
+TEST(StepTimes, CountAndRateFollowTheList) {
+  std::istringstream text("# three steps forward, one back\n0.001\n0.002 +1\n\n0.004 1\n0.005 -1\n");
+  const StepTimes s = StepTimes::Parse(text, "moves.txt");
+  EXPECT_EQ(s.size(), 4u);
+  EXPECT_EQ(s.Count(0.0), 0);
+  EXPECT_EQ(s.Count(0.001), 1);  // a step at t counts from t on
+  EXPECT_EQ(s.Count(0.0039), 2);
+  EXPECT_EQ(s.Count(0.0045), 3);
+  EXPECT_EQ(s.Count(1.0), 2);
+  EXPECT_NEAR(s.Rate(0.003), 1 / 0.002, 1e-9);  // from the step at 2 ms to the one at 4 ms
+  EXPECT_NEAR(s.Rate(0.0045), -1 / 0.001, 1e-9);
+  EXPECT_EQ(s.Rate(0.0), 0);
+}
+
+TEST(StepTimes, BadListsNameTheFileAndLine) {
+  auto error = [](const std::string& body) -> std::string {
+    std::istringstream text(body);
+    try {
+      StepTimes::Parse(text, "moves.txt");
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_THAT(error("0.1\n0.05\n"), HasSubstr("moves.txt:2: \"0.05\": step times must not decrease"));
+  EXPECT_THAT(error("0.1 2\n"), HasSubstr("moves.txt:1"));
+  EXPECT_THAT(error("nan\n"), HasSubstr("[0, 1e6]"));
+  EXPECT_THAT(error("-1\n"), HasSubstr("[0, 1e6]"));
+  EXPECT_THAT(error("0.1 1 x\n"), HasSubstr("at most a direction"));
+  EXPECT_THAT(error("# nothing\n"), HasSubstr("no step times"));
+  EXPECT_THAT(error("0.1\n"), ::testing::IsEmpty());
+}
+
+TEST(CommandProfile, StepListDrivesTheCountFromTheStartAngle) {
+  const std::string path = ::testing::TempDir() + "/steps.txt";
+  {
+    std::ofstream out(path);
+    for (int k = 1; k <= 100; ++k) out << k * 1e-3 << "\n";  // 1000 microsteps/s for 0.1 s
+  }
+  const CommandProfile p = CommandProfile::Parse("steps(" + path + ")");
+  EXPECT_TRUE(p.step_list());
+  const double step = kTwoPi / (4 * 50 * 16);  // rad per microstep
+  // The start angle's count, 7, plus the list's count at the step's end.
+  EXPECT_EQ(p.ControlForStep(0.0495, 1e-3, InputMode::kSteps, 7 * step, step), 7 + 50);
+  EXPECT_NEAR(p.Speed(0.05, step), 1000 * step, 1e-9);
+  EXPECT_THAT(
+      [] {
+        try {
+          CommandProfile::Parse("steps(/nonexistent/moves.txt)");
+        } catch (const std::invalid_argument& e) {
+          return std::string(e.what());
+        }
+        return std::string();
+      }(),
+      HasSubstr("cannot be read"));
 }
 
 }  // namespace

@@ -39,6 +39,16 @@ inline constexpr const char* kWords[] = {"tsui2009",
                                          "identification",
                                          "stmms",
                                          "foc",
+                                         "chopper",
+                                         "spreadcycle",
+                                         "steps",
+                                         "tmc2209",
+                                         "tmc2130",
+                                         "tmc5160",
+                                         "a4988",
+                                         "drv8825",
+                                         "mixed",
+                                         "qsh4218_51",
                                          "position",
                                          "velocity",
                                          "h_bridge",
@@ -145,7 +155,11 @@ inline constexpr std::pair<const char*, size_t> kCoreFields[] = {
     MJSTEPPER_FIELD(energy_copper), MJSTEPPER_FIELD(energy_mechanical),
     MJSTEPPER_FIELD(rotor_cos),     MJSTEPPER_FIELD(rotor_sin),
     MJSTEPPER_FIELD(slip_cell),     MJSTEPPER_FIELD(slip_origin),
-    MJSTEPPER_FIELD(last_slip_time)};
+    MJSTEPPER_FIELD(last_slip_time), MJSTEPPER_FIELD(stallguard),
+    MJSTEPPER_FIELD(stall),          MJSTEPPER_FIELD(first_stall_time),
+    MJSTEPPER_FIELD(full_step),      MJSTEPPER_FIELD(full_step_time),
+    MJSTEPPER_FIELD(full_step_theta), MJSTEPPER_FIELD(current_scale),
+    MJSTEPPER_FIELD(coolstep_count)};
 #undef MJSTEPPER_FIELD
 static_assert(std::size(kCoreFields) == sizeof(DriveCoreState) / sizeof(double));
 

@@ -2,6 +2,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -37,6 +39,14 @@ std::filesystem::path TempDir() {
       std::filesystem::temp_directory_path() / ("mjstepper_test_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+// The comma-separated fields of a CSV line.
+std::vector<std::string> Split(const std::string& line) {
+  std::vector<std::string> fields;
+  std::istringstream in(line);
+  for (std::string field; std::getline(in, field, ',');) fields.push_back(field);
+  return fields;
 }
 
 // The text of kModel, to edit into a variant.
@@ -76,6 +86,39 @@ TEST(Runner, RunWritesCsvWithUnitsAndNoTemporaryFile) {
   std::string line;
   while (std::getline(in, line)) ++rows;
   EXPECT_EQ(rows, 1000);
+}
+
+// Issue 17: a motion controller's step times drive a STEP/DIR stepper; the log's commanded angle
+// is the list's count; a step list on a stepper without input = steps is refused.
+TEST(Runner, StepTimeListDrivesASteppingStepper) {
+  const auto list = TempDir() / "moves.txt";
+  {
+    std::ofstream out(list);
+    out << "# 400 microsteps at 8 kHz, then 80 back\n";
+    for (int k = 1; k <= 400; ++k) out << k * 125e-6 << "\n";
+    for (int k = 1; k <= 80; ++k) out << 0.05 + k * 125e-6 << " -1\n";
+  }
+  const auto csv = TempDir() / "steps.csv";
+  const std::string sets =
+      " --set shaft.drive=chopper --set shaft.input=steps --set shaft.bus_voltage=24"
+      " --set shaft.run_current=1.3";
+  const Result r = RunCli("run " + kModel + " --duration 0.08 --quiet" + sets +
+                          " --ctrl 'shaft=steps(" + list.string() + ")' --log " + csv.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream in(csv);
+  std::string header, line, last;
+  std::getline(in, header);
+  while (std::getline(in, line)) last = line;
+  // The commanded angle at the end: 320 net microsteps of 2π/(4·50·16) rad.
+  const auto names = Split(header);
+  const auto values = Split(last);
+  const auto column = std::find(names.begin(), names.end(), "shaft:theta_cmd[rad]");
+  ASSERT_NE(column, names.end()) << header;
+  EXPECT_NEAR(std::stod(values[column - names.begin()]), 320 * 2 * M_PI / 3200, 1e-9);
+  const Result refused =
+      RunCli("run " + kModel + " --duration 0.01 --ctrl 'shaft=steps(" + list.string() + ")'");
+  EXPECT_NE(refused.status, 0);
+  EXPECT_THAT(refused.output, HasSubstr("set shaft.input=steps"));
 }
 
 // An angle profile on a velocity-input stepper was reduced to its slope: constant(0.5rad) stood

@@ -46,7 +46,7 @@ struct CommandSample {
 
 /// Position and speed feedback at tick t_k.
 struct FeedbackSample {
-  double theta = 0;           ///< θfb: encoder angle (S-16), rad
+  double theta = 0;  ///< θfb: encoder angle (S-16), rad
   double omega = 0;  ///< ωfb: speed feedback (S-17 estimate, or exact), rad/s
 
   /// e^{j·Nr·θfb} (cos + j·sin of the measured electrical angle), for the controllers that
@@ -58,10 +58,11 @@ struct FeedbackSample {
 struct Sample {
   CommandSample command;
   FeedbackSample feedback;
-  PhaseVector current;         ///< ia + j·ib at t_k, A (ideal current sensors)
-  long tick = 0;               ///< k: this tick is at t_k = k·T (exact while |t|/T < 2^53;
-                               ///< beyond, a label counted from the clock's anchor: only its
-                               ///< residues mean something, as the servo's decimation uses them)
+  PhaseVector current;       ///< ia + j·ib at t_k, A (ideal current sensors)
+  double current_scale = 1;  ///< CoolStep's scale of the run current (sensors/stallguard.h)
+  long tick = 0;             ///< k: this tick is at t_k = k·T (exact while |t|/T < 2^53;
+                             ///< beyond, a label counted from the clock's anchor: only its
+                             ///< residues mean something, as the servo's decimation uses them)
 
   static Sample From(const Sample& s) { return s; }
 };
@@ -95,26 +96,27 @@ enum class SpeedFeedback {
 };
 
 template <class C>
-concept ControllerUnit =
-    std::is_trivially_copyable_v<typename C::State> &&
-    (std::is_empty_v<typename C::State> || sizeof(typename C::State) % sizeof(double) == 0) &&
-    requires(const C c, const DriveConstants& k, const typename C::Input& in,
-             const PowerStage& stage, typename C::State* state, const RestInput& rest,
-             const Sample& sample, const AttributeSource& attrs, const MotorParams& motor) {
-      { C::kName } -> std::convertible_to<const char*>;
-      { C::kSummary } -> std::convertible_to<const char*>;
-      { C::kDefaultSpeedFeedback } -> std::convertible_to<SpeedFeedback>;
-      { C::kStiffnessFormula } -> std::convertible_to<const char*>;
-      // true: open loop, the drive counts slips of whole electrical cycles (lost_steps); false: a
-      // closed position loop, whose error is position_error.
-      { C::kCountsSlips } -> std::convertible_to<bool>;
-      { C::Attributes() } -> std::same_as<std::vector<const AttributeSpec*>>;
-      { C::FromAttributes(attrs, motor, k) } -> std::same_as<C>;
-      { C::Input::From(sample) } -> std::same_as<typename C::Input>;
-      { c.Tick(k, in, stage, state) } -> std::same_as<TickOutput>;
-      { c.Rest(k, rest, state) } -> std::same_as<PhaseVector>;
-      { c.HoldingStiffness(k, PhaseVector{}) } -> std::same_as<double>;
-    };
+concept ControllerUnit = std::is_trivially_copyable_v<typename C::State> &&
+                         (std::is_empty_v<typename C::State> ||
+                          sizeof(typename C::State) % sizeof(double) == 0) &&
+                         requires(const C c, const DriveConstants& k, const typename C::Input& in,
+                                  const PowerStage& stage, typename C::State* state,
+                                  const RestInput& rest, const Sample& sample,
+                                  const AttributeSource& attrs, const MotorParams& motor) {
+  { C::kName } -> std::convertible_to<const char*>;
+  { C::kSummary } -> std::convertible_to<const char*>;
+  { C::kDefaultSpeedFeedback } -> std::convertible_to<SpeedFeedback>;
+  { C::kStiffnessFormula } -> std::convertible_to<const char*>;
+  // true: open loop, the drive counts slips of whole electrical cycles (lost_steps); false: a
+  // closed position loop, whose error is position_error.
+  { C::kCountsSlips } -> std::convertible_to<bool>;
+  { C::Attributes() } -> std::same_as<std::vector<const AttributeSpec*>>;
+  { C::FromAttributes(attrs, motor, k) } -> std::same_as<C>;
+  { C::Input::From(sample) } -> std::same_as<typename C::Input>;
+  { c.Tick(k, in, stage, state) } -> std::same_as<TickOutput>;
+  { c.Rest(k, rest, state) } -> std::same_as<PhaseVector>;
+  { c.HoldingStiffness(k, PhaseVector{}) } -> std::same_as<double>;
+};
 
 }  // namespace mjstepper
 

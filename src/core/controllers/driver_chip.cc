@@ -37,13 +37,16 @@ const std::vector<DriverChip>& DriverChips() {
       {.name = "tmc2209",
        .drive = "spreadcycle",
        .source = "Trinamic TMC2209 datasheet Rev. 1.09: 4.75-29 V, 2 A RMS (2.8 A peak), f_CLK "
-                 "12 MHz, t_OFF = (24 + 32·TOFF)/f_CLK, TBL 16/24/32/40 clocks; BigTreeTech "
+                 "12 MHz, t_OFF = (24 + 32·TOFF)/f_CLK, TBL 16/24/32/40 clocks, StallGuard4 in "
+                 "StealthChop only; BigTreeTech "
                  "module R_S 0.110 Ω; Klipper's CHOPCONF defaults TOFF 3, HSTRT 5, HEND 0, TBL 2",
        .max_bus_voltage = 29,
        .max_current = 2.0,
        .sense_resistor = 0.110,
        .scaling = CurrentScaling::kCsVsense,
        .interpolate = true,
+       .stallguard_spread = 0,
+       .stallguard_stealth = 4,
        .clock_frequency = 12e6,
        .off_time_base = 24,
        .blank_clocks = {16, 24, 32, 40},
@@ -58,13 +61,16 @@ const std::vector<DriverChip>& DriverChips() {
       {.name = "tmc2130",
        .drive = "spreadcycle",
        .source = "Trinamic TMC2130 datasheet Rev. 1.15: 4.75-46 V, 1.2 A RMS (QFN; 2.5 A peak), "
-                 "f_CLK 13.2 MHz typical, t_OFF = (12 + 32·TOFF)/f_CLK, TBL 16/24/36/54 clocks; "
-                 "module R_S 0.110 Ω; Klipper's defaults TOFF 4, HSTRT 0, HEND 7, TBL 1",
+                 "f_CLK 13.2 MHz typical, t_OFF = (12 + 32·TOFF)/f_CLK, TBL 16/24/36/54 clocks, "
+                 "StallGuard2 in SpreadCycle; module R_S 0.110 Ω; Klipper's defaults TOFF 4, HSTRT "
+                 "0, HEND 7, TBL 1",
        .max_bus_voltage = 46,
        .max_current = 1.2,
        .sense_resistor = 0.110,
        .scaling = CurrentScaling::kCsVsense,
        .interpolate = true,
+       .stallguard_spread = 2,
+       .stallguard_stealth = 0,
        .clock_frequency = 13.2e6,
        .off_time_base = 12,
        .blank_clocks = {16, 24, 36, 54},
@@ -80,13 +86,16 @@ const std::vector<DriverChip>& DriverChips() {
        .drive = "spreadcycle",
        .source = "Trinamic TMC5160 datasheet Rev. 1.14: 8-60 V, external MOSFETs (up to 20 A; "
                  "3 A RMS here, the BigTreeTech module's rating), f_CLK 12 MHz, t_OFF = "
-                 "(24 + 32·TOFF)/f_CLK, TBL 16/24/36/54 clocks, R_S 0.075 Ω; Klipper's defaults "
+                 "(24 + 32·TOFF)/f_CLK, TBL 16/24/36/54 clocks, StallGuard2 in SpreadCycle, R_S "
+                 "0.075 Ω; Klipper's defaults "
                  "TOFF 3, HSTRT 5, HEND 2, TBL 2",
        .max_bus_voltage = 60,
        .max_current = 3.0,
        .sense_resistor = 0.075,
        .scaling = CurrentScaling::kGlobalScale,
        .interpolate = true,
+       .stallguard_spread = 2,
+       .stallguard_stealth = 0,
        .clock_frequency = 12e6,
        .off_time_base = 24,
        .blank_clocks = {16, 24, 36, 54},
@@ -108,6 +117,8 @@ const std::vector<DriverChip>& DriverChips() {
        .sense_resistor = 0.068,
        .scaling = CurrentScaling::kExact,
        .interpolate = false,
+       .stallguard_spread = 0,
+       .stallguard_stealth = 0,
        .clock_frequency = 0,
        .off_time_base = 0,
        .blank_clocks = {0, 0, 0, 0},
@@ -129,6 +140,8 @@ const std::vector<DriverChip>& DriverChips() {
        .sense_resistor = 0.100,
        .scaling = CurrentScaling::kExact,
        .interpolate = false,
+       .stallguard_spread = 0,
+       .stallguard_stealth = 0,
        .clock_frequency = 0,
        .off_time_base = 0,
        .blank_clocks = {0, 0, 0, 0},

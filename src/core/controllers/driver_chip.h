@@ -44,7 +44,9 @@ struct DriverChip {
   double max_current;      ///< A RMS the chip (with its module's cooling) is rated for
   double sense_resistor;   ///< Ω, R_S of the common module
   CurrentScaling scaling;
-  bool interpolate;  ///< MicroPlyer (TMC) by default
+  bool interpolate;        ///< MicroPlyer (TMC) by default
+  int stallguard_spread;   ///< StallGuard version in SpreadCycle (2, or 0: none)
+  int stallguard_stealth;  ///< StallGuard version in StealthChop (4, or 0: none)
   // SpreadCycle / StealthChop chips (TMC):
   double clock_frequency;              ///< f_CLK, Hz; 0 for the analog chips
   double off_time_base;                ///< t_OFF = (off_time_base + 32·TOFF)/f_CLK, clocks

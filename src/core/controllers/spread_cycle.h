@@ -31,6 +31,7 @@
 #include "core/controllers/controller.h"
 #include "core/controllers/driver_chip.h"
 #include "core/controllers/step_table.h"
+#include "core/sensors/stallguard.h"
 #include "core/switching.h"
 
 namespace mjstepper {
@@ -78,6 +79,7 @@ struct SpreadCycle {
   double hysteresis_start = 0;  ///< HSTRT + HEND, units
   double hysteresis_end = 0;    ///< HEND, units
   double decrement_time = 0;    ///< s per hysteresis unit: 16/f_CLK
+  StallGuard stallguard;        ///< StallGuard2 and CoolStep on TMC2130/5160; none on TMC2209
 
   struct State {
     std::array<PhaseSwitch, 2> phase;
@@ -88,12 +90,13 @@ struct SpreadCycle {
   static std::vector<const AttributeSpec*> Attributes() {
     std::vector<const AttributeSpec*> list = MicrostepTable::Attributes();
     list.insert(list.end(), {&kAttrToff, &kAttrTbl, &kAttrHstrt, &kAttrHend, &kAttrClockFrequency});
+    for (const AttributeSpec* spec : StallGuard::Attributes()) list.push_back(spec);
     return list;
   }
   static SpreadCycle FromAttributes(const AttributeSource& a, const MotorParams& motor,
                                     const DriveConstants&) {
-    const DriverChip* chip = FindDriver(a);
-    if (chip == nullptr) chip = &DriverChips().front();  // TMC2209 timing
+    const DriverChip* given = FindDriver(a);
+    const DriverChip* chip = given != nullptr ? given : &DriverChips().front();  // TMC2209's
     if (chip->clock_frequency == 0) {
       ThrowBad(kAttrDriver, chip->name,
                "has no SpreadCycle (a constant-off-time chopper): use drive = chopper");
@@ -117,16 +120,18 @@ struct SpreadCycle {
     c.hysteresis_start = hstrt + hend;
     c.hysteresis_end = hend;
     c.decrement_time = 16 / f_clk;
+    c.stallguard = StallGuard::FromAttributes(a, given != nullptr ? given->stallguard_spread : 0);
     return c;
   }
 
   /// One hysteresis unit, A: 1/512 of the full scale, whose sine peak is 248/256 of it.
   double HysteresisUnit() const { return table.peak_current / 496; }
 
-  /// At each tick: the step count → the table's targets.
+  /// At each tick: the step count → the table's targets, scaled by CoolStep.
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage&, State* s) const {
     const double count = table.Count(k, in.command.theta);
-    const PhaseVector target = table.Targets(table.Position(k, count, in.tick, &s->counter));
+    const PhaseVector target =
+        in.current_scale * table.Targets(table.Position(k, count, in.tick, &s->counter));
     return {.bridge = {}, .current_ref = target};
   }
 

@@ -1,0 +1,75 @@
+#include "core/step_times.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/attributes.h"
+
+namespace mjstepper {
+
+StepTimes StepTimes::Parse(std::istream& in, const std::string& source) {
+  StepTimes s;
+  std::string line;
+  long number = 0;
+  double count = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    const std::string text = Trim(line);
+    if (text.empty() || text[0] == '#') continue;
+    auto bad = [&](const std::string& why) {
+      return std::invalid_argument(fmt::format("{}:{}: \"{}\": {}", source, number, text, why));
+    };
+    std::istringstream fields(text);
+    std::string time_text, direction_text, extra;
+    fields >> time_text >> direction_text >> extra;
+    double time = 0, direction = 1;
+    if (!ParseFiniteDouble(time_text, &time) || !(time >= 0 && time <= 1e6)) {
+      throw bad("a step time is a number of seconds in [0, 1e6]");
+    }
+    if (!direction_text.empty() && (!ParseFiniteDouble(direction_text, &direction) ||
+                                    (direction != 1 && direction != -1))) {
+      throw bad("the direction after the time is +1 or -1");
+    }
+    if (!extra.empty()) throw bad("expected a time and at most a direction");
+    if (!s.times_.empty() && time < s.times_.back()) {
+      throw bad(fmt::format("step times must not decrease (the step before is at {:g} s)",
+                            s.times_.back()));
+    }
+    if (s.times_.size() >= kMaxStepTimes) {
+      throw bad(fmt::format("more than {} steps", kMaxStepTimes));
+    }
+    count += direction;
+    s.times_.push_back(time);
+    s.counts_.push_back(count);
+  }
+  if (s.times_.empty()) {
+    throw std::invalid_argument(fmt::format("{}: no step times (one time in s per line)", source));
+  }
+  return s;
+}
+
+StepTimes StepTimes::Read(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument(fmt::format("{}: cannot be read", path));
+  return Parse(in, path);
+}
+
+double StepTimes::Count(double t) const {
+  const auto it = std::upper_bound(times_.begin(), times_.end(), t);
+  return it == times_.begin() ? 0.0 : counts_[it - times_.begin() - 1];
+}
+
+double StepTimes::Rate(double t) const {
+  const auto it = std::upper_bound(times_.begin(), times_.end(), t);
+  if (it == times_.begin() || it == times_.end()) return 0.0;
+  const std::size_t next = it - times_.begin();
+  const double interval = times_[next] - times_[next - 1];  // s
+  const double direction = counts_[next] - counts_[next - 1];
+  return interval > 0 ? direction / interval : 0.0;
+}
+
+}  // namespace mjstepper

@@ -1,0 +1,44 @@
+// A motion controller's STEP/DIR output as a list of step times (issue 17: "one step time per
+// line, as a motion controller would emit"), for drives with input = steps: the microstep count
+// at any time, and the step rate there.
+//
+// Format, one step per line: its time in s (non-decreasing, within [0, 1e6]), optionally
+// followed by its direction, +1 (default) or −1; blank lines and lines starting with # are
+// skipped. At most kMaxStepTimes lines.
+#ifndef MJSTEPPER_CORE_STEP_TIMES_H_
+#define MJSTEPPER_CORE_STEP_TIMES_H_
+
+#include <cstddef>
+#include <istream>
+#include <string>
+#include <vector>
+
+namespace mjstepper {
+
+/// 10 million steps: 52 min of 1/16 microsteps at 1000 r/min; beyond, a list is a mistake.
+inline constexpr std::size_t kMaxStepTimes = 10000000;
+
+class StepTimes {
+ public:
+  /// Throws std::invalid_argument naming `source`, the line and what is wrong.
+  static StepTimes Parse(std::istream& in, const std::string& source);
+  /// Parse of a file; throws std::invalid_argument when it cannot be read.
+  static StepTimes Read(const std::string& path);
+
+  /// The signed count of steps at times <= t (s): the driver's position, in microsteps.
+  double Count(double t) const;
+  /// The step rate at t (s), microsteps/s: the direction of the next step over the interval
+  /// from the step before t to it; 0 before the first and after the last.
+  double Rate(double t) const;
+
+  std::size_t size() const { return times_.size(); }
+  double last_time() const { return times_.empty() ? 0.0 : times_.back(); }
+
+ private:
+  std::vector<double> times_;   // s, non-decreasing
+  std::vector<double> counts_;  // the count after each step
+};
+
+}  // namespace mjstepper
+
+#endif  // MJSTEPPER_CORE_STEP_TIMES_H_
