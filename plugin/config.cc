@@ -208,6 +208,12 @@ DriveConfig Parse(const AttributeSource& a) {
     ThrowBad(kAttrVoltageAmplitude, fmt::format("{}", v->voltage_amplitude),
              fmt::format("must be <= bus_voltage = {} for voltage_microstep (V)", c.bus_voltage));
   }
+  if (c.input == InputMode::kSteps && Microsteps(c.controller) == 0) {
+    ThrowBad(kAttrInput, "steps",
+             fmt::format("counts microsteps: drive {} has no microstep table; use a chopper drive "
+                         "(chopper, spreadcycle, stealthchop) or set microsteps >= 1",
+                         drive));
+  }
   Validate(c);  // the core's own checks, as a backstop
   // The start state respects the bus (S-13): the drive starts at rest holding its current with
   // v = R·i, which the bridges must be able to give. Named by the attribute that sets the current.

@@ -207,6 +207,12 @@ TEST(Config, DriverChipPicksTheDriveAndBoundsTheSupply) {
   ASSERT_TRUE(std::holds_alternative<std::string>(over));
   EXPECT_THAT(std::get<std::string>(over),
               AllOf(HasSubstr("bus_voltage"), HasSubstr("48"), HasSubstr("at most 29 V")));
+  // Found by the config fuzzer: input = steps on a drive without a microstep table was refused by
+  // the core's backstop, not named as an attribute.
+  const auto no_table = ParseMap({{"input", "steps"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(no_table));
+  EXPECT_THAT(std::get<std::string>(no_table),
+              AllOf(HasSubstr("input = \"steps\""), HasSubstr("no microstep table")));
   const auto lab = config({{"driver", "tmc2209"}, {"drive", "current_microstep"}});
   ASSERT_TRUE(std::holds_alternative<std::string>(lab));
   EXPECT_THAT(std::get<std::string>(lab),
