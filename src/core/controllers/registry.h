@@ -11,6 +11,7 @@
 #include "core/controllers/current_microstep.h"
 #include "core/controllers/high_gain_foc.h"
 #include "core/controllers/servo.h"
+#include "core/controllers/stealth_chop.h"
 #include "core/controllers/stmms.h"
 #include "core/controllers/voltage_microstep.h"
 
@@ -18,7 +19,7 @@ namespace mjstepper {
 
 using Controller = std::variant<CurrentMicrostep,  // the default (index 0)
                                 VoltageMicrostep, IdealCurrent, Servo, Identification, Stmms,
-                                HighGainFoc, ConstantOffTime>;
+                                HighGainFoc, ConstantOffTime, StealthChop>;
 
 namespace internal {
 template <class V>
