@@ -38,8 +38,10 @@ Stepping Load(const std::string& path, double ctrl, const std::string& configs =
   text << file.rdbuf();
   std::string xml = text.str();
   if (!configs.empty()) xml.insert(xml.find("<config key=\"motor\""), configs);
-  // A chopper drive (issue 17) in place of the PI loop, at the same peak current (1.9 A).
-  if (configs.find("chopper") != std::string::npos) {
+  // A chopper or StealthChop drive (issue 17) in place of the PI loop, at the same peak current
+  // (1.9 A).
+  if (configs.find("chopper") != std::string::npos ||
+      configs.find("stealthchop") != std::string::npos) {
     const std::string pi = R"(<config key="drive" value="current_microstep"/>)";
     xml.erase(xml.find(pi), pi.size());
   }
@@ -94,14 +96,18 @@ int main(int argc, char** argv) {
   const std::string chopper =
       R"(<config key="drive" value="chopper"/><config key="decay" value="mixed"/>)"
       R"(<config key="run_current" value="1.3435"/>)";
-  // "stepper", "stepper1mhz", "chopper", "dcmotor" or "dcmotor_ripple": that one alone (for
-  // callgrind)
+  // StealthChop (averaged voltage PWM, autoscale) on the same motor and load at the same peak.
+  const std::string stealthchop =
+      R"(<config key="drive" value="stealthchop"/><config key="run_current" value="1.3435"/>)";
+  // "stepper", "stepper1mhz", "chopper", "stealthchop", "dcmotor" or "dcmotor_ripple": that one
+  // alone (for callgrind)
   const std::string only = argc > 2 ? argv[2] : "";
-  if (only == "stepper" || only == "stepper1mhz" || only == "chopper" || only == "dcmotor" ||
-      only == "dcmotor_ripple") {
+  if (only == "stepper" || only == "stepper1mhz" || only == "chopper" || only == "stealthchop" ||
+      only == "dcmotor" || only == "dcmotor_ripple") {
     const Stepping s = only == "stepper"       ? Load(dir + "tsui_rigid.xml", 10.472)
                        : only == "stepper1mhz" ? Load(dir + "tsui_rigid.xml", 10.472, fast)
                        : only == "chopper"     ? Load(dir + "tsui_rigid.xml", 10.472, chopper)
+                       : only == "stealthchop" ? Load(dir + "tsui_rigid.xml", 10.472, stealthchop)
                        : only == "dcmotor"     ? Load(dir + "tsui_rigid_dcmotor.xml", 3.0)
                                                : rippled(Load(dir + "tsui_rigid_dcmotor.xml", 3.0));
     double best = 1e300;

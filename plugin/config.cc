@@ -191,7 +191,8 @@ DriveConfig Parse(const AttributeSource& a) {
                                  .resistance = c.motor.resistance,
                                  .inductance = c.motor.inductance,
                                  .torque_constant = c.motor.torque_constant,
-                                 .isr_period = c.isr_period};
+                                 .isr_period = c.isr_period,
+                                 .bus_voltage = c.bus_voltage};
   c.controller = MakeController(drive, a, c.motor, constants);
   // An attribute the chosen controller does not read is a mistake, not a silent no-op.
   const std::vector<const AttributeSpec*> used = ControllerAttributes(drive);
@@ -213,6 +214,18 @@ DriveConfig Parse(const AttributeSource& a) {
              fmt::format("counts microsteps: drive {} has no microstep table; use a chopper drive "
                          "(chopper, spreadcycle, stealthchop) or set microsteps >= 1",
                          drive));
+  }
+  // StealthChop's largest phase voltage is Vbus·255/256·248/256: at standstill it must drive
+  // R·√2·run_current, or autoscale regulates toward a current the bridge cannot give.
+  if (const auto* st = std::get_if<StealthChop>(&c.controller);
+      st != nullptr && st->pwm_autoscale &&
+      c.motor.resistance * st->table.peak_current >
+          StealthChop::kFullScale * StealthChop::VoltsPerUnit(c.bus_voltage)) {
+    ThrowBad(kAttrRunCurrent, a.Raw(kAttrRunCurrent).value_or(kAttrRunCurrent.default_text),
+             fmt::format("at standstill StealthChop needs R·√2·run_current = {:.4g} V, more than "
+                         "its largest phase voltage bus_voltage·255/256·248/256 = {:.4g} V",
+                         c.motor.resistance * st->table.peak_current,
+                         StealthChop::kFullScale * StealthChop::VoltsPerUnit(c.bus_voltage)));
   }
   Validate(c);  // the core's own checks, as a backstop
   // The start state respects the bus (S-13): the drive starts at rest holding its current with

@@ -130,7 +130,8 @@ Drive::Drive(DriveConfig config) : config_(std::move(config)) {
                 .resistance = motor.resistance,
                 .inductance = motor.inductance,
                 .torque_constant = motor.torque_constant,
-                .isr_period = config_.isr_period};
+                .isr_period = config_.isr_period,
+                .bus_voltage = config_.bus_voltage};
   layout_ = MakeStateLayout(config_);
   step_angle_ = mjstepper::StepAngle(config_);
   if (layout_.controller + layout_.profile > kMaxUnitState) {

@@ -52,6 +52,36 @@ TEST(Config, OneSignOnly) {
   EXPECT_THAT(std::get<std::string>(parsed), AllOf(HasSubstr("detent"), HasSubstr("+-1")));
 }
 
+// StealthChop on a catalogue motor: parsed with the TMC2209's defaults; a run current the bus
+// cannot drive at standstill (R·√2·I above Vbus·255/256·248/256) is a load error naming it.
+TEST(Config, StealthChopReachesItsRunCurrentOrFailsToLoad) {
+  const auto parsed = ParseMap({{"motor", "qsh4218_51"},
+                                {"drive", "stealthchop"},
+                                {"input", "steps"},
+                                {"bus_voltage", "24"}});
+  ASSERT_TRUE(std::holds_alternative<DriveConfig>(parsed)) << std::get<std::string>(parsed);
+  const StealthChop& st = std::get<StealthChop>(std::get<DriveConfig>(parsed).controller);
+  EXPECT_EQ(st.pwm_ofs, 36);
+  EXPECT_EQ(st.pwm_reg, 8);
+  // qsh4218_51: R = 5 Ω; at 12 V the largest phase voltage is 11.58 V, so 1.7 A RMS (12.0 V at
+  // rest) cannot be held while 1.6 A RMS (11.3 V) can.
+  const auto too_much = ParseMap({{"motor", "qsh4218_51"},
+                                  {"drive", "stealthchop"},
+                                  {"bus_voltage", "12"},
+                                  {"run_current", "1.7"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(too_much));
+  EXPECT_THAT(std::get<std::string>(too_much),
+              AllOf(HasSubstr("run_current = \"1.7\""), HasSubstr("largest phase voltage")));
+  EXPECT_TRUE(std::holds_alternative<DriveConfig>(ParseMap({{"motor", "qsh4218_51"},
+                                                            {"drive", "stealthchop"},
+                                                            {"bus_voltage", "12"},
+                                                            {"run_current", "1.6"}})));
+  // An attribute of StealthChop on another drive names the drive that reads it.
+  const auto misplaced = ParseMap({{"drive", "chopper"}, {"pwm_grad", "20"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(misplaced));
+  EXPECT_THAT(std::get<std::string>(misplaced), HasSubstr("read by stealthchop"));
+}
+
 TEST(Config, DefaultsAreTsuiCurrentMicrostepping) {
   const auto parsed = ParseMap({});
   ASSERT_TRUE(std::holds_alternative<DriveConfig>(parsed));

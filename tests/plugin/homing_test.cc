@@ -25,8 +25,8 @@ constexpr double kStop = -0.005;            // m, the hard stop (the carriage's 
 constexpr int kMicrosteps = 16;
 constexpr double kStepAngle = 2 * std::numbers::pi / (200 * kMicrosteps);  // rad per microstep
 
-// belt_axis.xml's carriage on a 17HS19-2004S1 and a TMC5160 in SpreadCycle (StallGuard2), the
-// carriage's slide limited at kStop with a stiff limit (solref 2 ms).
+// belt_axis.xml's carriage on a 17HS19-2004S1, the carriage's slide limited at kStop with a stiff
+// limit (solref 2 ms); the driver and drive in `drive_configs`.
 std::string HomingModel(const std::string& drive_configs) {
   const double inertia = FindPreset("17hs19_2004s1")->motor.rotor_inertia;
   return fmt::format(R"(<mujoco>
@@ -43,7 +43,7 @@ std::string HomingModel(const std::string& drive_configs) {
     <joint joint="carriage" coef="1"/><joint joint="shaft" coef="-{}"/></fixed></tendon>
   <actuator><plugin name="m" joint="shaft" plugin="mjstepper.stepper" armature="{}"
       damping="1e-4"><config key="motor" value="17hs19_2004s1"/>
-      <config key="driver" value="tmc5160"/><config key="input" value="steps"/>
+      <config key="input" value="steps"/>
       <config key="microsteps" value="{}"/>{}</plugin></actuator>
   <sensor><plugin plugin="mjstepper.stepper" objtype="actuator" objname="m"/></sensor>
 </mujoco>)",
@@ -93,25 +93,42 @@ Homing Home(mjModel* m, double speed, double start, double t_max, double shift =
   return h;
 }
 
-TEST(SensorlessHoming, DetectsTheHardStopRepeatably) {
-  // 20 mm/s (Klipper's advice: rotation_distance/2 per second, 30 r/min here), SGT −10 (SG_RESULT
-  // 0 at cos δi ≈ 0.47 with the default calibration); 16 runs starting 4-6 mm from the stop, at
-  // random positions, against stops at random places on the driver's microstep grid. Detection
-  // at the closed-form delay (the belt stretches as the rotor winds on towards the load angle the
-  // threshold sets: k·r² = 0.81 N·m/rad against 0.59 N·m), and the homed position repeatable
-  // within Prusa's acceptable 1.125 full steps.
+// The StallGuard of each chip, and the cos δi at which its threshold flags a stall at ω (rad/s):
+// StallGuard2's SG_RESULT = 1023·Km·ω·cos δi/V_sg + 16·SGT reaches 0 at cos δ* = −16·SGT·V_sg/
+// (1023·Km·ω); StallGuard4's 510·Km·ω·cos δi/V_sg reaches 2·SGTHRS at 2·SGTHRS·V_sg/(510·Km·ω).
+struct Chip {
+  const char* name;
+  std::string configs;
+  double threshold;   // counts: −16·SGT or 2·SGTHRS
+  double full_scale;  // 1023 or 510
+};
+const Chip kStallGuard2{"TMC5160 SpreadCycle StallGuard2",
+                        Config("driver", "tmc5160") + Config("sgt", "-10"), 160, 1023};
+const Chip kStallGuard4{"TMC2209 StealthChop StallGuard4",
+                        Config("driver", "tmc2209") + Config("drive", "stealthchop") +
+                            Config("run_current", "1.4") + Config("sgthrs", "40"),
+                        80, 510};
+
+void CheckHoming(const Chip& chip) {
+  // 20 mm/s (Klipper's advice: rotation_distance/2 per second, 30 r/min here); 16 runs starting
+  // 4-6 mm from the stop, at random positions, against stops at random places on the driver's
+  // microstep grid. Detection at the closed-form delay (the belt stretches as the rotor winds on
+  // towards the load angle the threshold sets: k·r² = 0.81 N·m/rad against 0.59 N·m), and the
+  // homed position repeatable within Prusa's acceptable 1.125 full steps.
   std::string error;
-  const ModelPtr m = LoadModel(HomingModel(Config("sgt", "-10")), &error);
+  const ModelPtr m = LoadModel(HomingModel(chip.configs), &error);
   ASSERT_TRUE(m) << error;
-  // The closed form of the delay: SG_RESULT = 1023·Km·ω·cos δi/V_sg + 16·SGT reaches 0 at
-  // cos δ* = 160·V_sg/(1023·Km·ω); the motor then makes τ* = Km·I·sin δ*, which the belt holds
-  // once the rotor has wound on τ*/(k·r²) past the contact, at ω: delay = τ*/(k·r²·ω). Allowed
-  // 20 ms, two full steps at 100 full steps/s: one for the once-per-full-step measurement, one
-  // for the current's lag behind the table and the limit's give.
+  // The closed form of the delay: at cos δ* the motor makes τ* = Km·I·sin δ*, which the belt holds
+  // once the rotor has wound on τ*/(k·r²) past the contact, at ω: delay = τ*/(k·r²·ω), I the
+  // regulated peak current (read at the start, from the drive's rest). Allowed 20 ms, two full
+  // steps at 100 full steps/s: one for the once-per-full-step measurement, one for the current's
+  // lag behind the table and the limit's give.
   const MotorParams motor = FindPreset("17hs19_2004s1")->motor;
-  const double omega = 0.020 / kPulleyRadius;                // rad/s
-  const double peak = std::sqrt(2.0) * motor.rated_current;  // A
-  const double cos_delta = 160 * 2.0 / (1023 * motor.torque_constant * omega);
+  DataPtr d0(mj_makeData(m.get()));
+  mj_forward(m.get(), d0.get());
+  const double peak = std::hypot(d0->sensordata[kCurrentA], d0->sensordata[kCurrentB]);  // A
+  const double omega = 0.020 / kPulleyRadius;                                            // rad/s
+  const double cos_delta = chip.threshold * 2.0 / (chip.full_scale * motor.torque_constant * omega);
   const double torque = motor.torque_constant * peak * std::sqrt(1 - cos_delta * cos_delta);
   const double delay_expected = torque / (2e4 * kPulleyRadius * kPulleyRadius * omega);  // s
   std::mt19937 random(17);
@@ -121,9 +138,9 @@ TEST(SensorlessHoming, DetectsTheHardStopRepeatably) {
   std::vector<double> errors, delays;
   for (int run = 0; run < 16; ++run) {
     const Homing h = Home(m.get(), 0.020, start(random), 0.5, shift(random));
-    ASSERT_GT(h.contact_time, 0) << "run " << run;
-    ASSERT_GT(h.stall_time, h.contact_time) << "run " << run << ": flagged before the stop";
-    EXPECT_NEAR(h.stall_time - h.contact_time, delay_expected, 0.02) << "run " << run;
+    ASSERT_GT(h.contact_time, 0) << chip.name << ", run " << run;
+    ASSERT_GT(h.stall_time, h.contact_time) << chip.name << ", run " << run << ": flagged early";
+    EXPECT_NEAR(h.stall_time - h.contact_time, delay_expected, 0.02) << chip.name << ", " << run;
     errors.push_back(h.error_steps);
     delays.push_back(h.stall_time - h.contact_time);
   }
@@ -133,16 +150,18 @@ TEST(SensorlessHoming, DetectsTheHardStopRepeatably) {
                         *std::min_element(errors.begin(), errors.end());  // full steps
   for (double t : delays) delay += t / delays.size();
   std::printf(
-      "sensorless homing at 20 mm/s: detected %.1f ms after the contact on average (closed form "
-      "%.1f ms), homed %.3f full steps past the stop on average, within %.3f full steps (max − "
-      "min) over %zu runs\n",
-      delay * 1e3, delay_expected * 1e3, mean, spread, errors.size());
+      "sensorless homing, %s, 20 mm/s: detected %.1f ms after the contact on average (closed "
+      "form %.1f ms), homed %.3f full steps past the stop on average, within %.3f full steps "
+      "(max − min) over %zu runs\n",
+      chip.name, delay * 1e3, delay_expected * 1e3, mean, spread, errors.size());
   // StallGuard measures once per full step, so the homed position is quantized to full steps:
-  // one full step peak to peak, plus the spread of the delay (20 ms at 100 full steps/s is 2 full
-  // steps, but it moves with the stop). Prusa's firmware accepts 1.125 full steps.
-  EXPECT_LT(spread, 1.125);
-  EXPECT_GT(spread, 0.5);  // the quantization is there: the stops fall across the grid
+  // one full step peak to peak. Prusa's firmware accepts 1.125 full steps.
+  EXPECT_LT(spread, 1.125) << chip.name;
+  EXPECT_GT(spread, 0.5) << chip.name;  // the quantization is there: stops fall across the grid
 }
+
+TEST(SensorlessHoming, StallGuard2DetectsTheHardStopRepeatably) { CheckHoming(kStallGuard2); }
+TEST(SensorlessHoming, StallGuard4DetectsTheHardStopRepeatably) { CheckHoming(kStallGuard4); }
 
 TEST(SensorlessHoming, BlindBelowTheStallGuardSpeed) {
   // 5 r/min (3.3 mm/s): below stallguard_min_speed (10 r/min) the flag is off, so the stall goes
@@ -150,13 +169,13 @@ TEST(SensorlessHoming, BlindBelowTheStallGuardSpeed) {
   // to 1 r/min the same run flags at once, before the stop: the free rotor's SG_RESULT at 5 r/min
   // is already at the stall level, which is why the chip must not look there.
   std::string error;
-  const ModelPtr blind = LoadModel(HomingModel(Config("sgt", "-10")), &error);
+  const ModelPtr blind = LoadModel(HomingModel(kStallGuard2.configs), &error);
   ASSERT_TRUE(blind) << error;
   const Homing h = Home(blind.get(), 5.0 / 60 * 0.04, 0.0, 2.0);
   EXPECT_GT(h.contact_time, 0);
   EXPECT_LT(h.stall_time, 0) << "flagged at " << h.stall_time;
   const ModelPtr looking =
-      LoadModel(HomingModel(Config("sgt", "-10") + Config("stallguard_min_speed", "0.1")), &error);
+      LoadModel(HomingModel(kStallGuard2.configs + Config("stallguard_min_speed", "0.1")), &error);
   ASSERT_TRUE(looking) << error;
   const Homing early = Home(looking.get(), 5.0 / 60 * 0.04, 0.0, 2.0);
   EXPECT_GT(early.stall_time, 0);

@@ -28,6 +28,7 @@ struct DriveConstants {
   double inductance = 2.2e-3;    ///< L, H
   double torque_constant = 0.3;  ///< Km, N·m/A
   double isr_period = 50e-6;     ///< T, s: control tick period
+  double bus_voltage = 48.0;     ///< Vbus, V (S-13): what a voltage-mode PWM's duty scales
 };
 
 /// T' = Nr·Km·|i| (SPEC §1, T(1)): the holding stiffness, N·m/rad, of a rotor held by a current

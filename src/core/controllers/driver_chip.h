@@ -29,6 +29,14 @@ inline constexpr AttributeSpec kAttrSenseResistor{
     "`run_current` is rounded to the nearest current the chip can set; TMC5160 the same with "
     "GLOBALSCALER/256 and no 0.02 Ω; A4988 / DRV8825 (analog VREF) exactly. In [0.01, 1]."};
 
+inline constexpr AttributeSpec kAttrClockFrequency{
+    "clock_frequency", "real", "the chip's (12e6; 13.2e6 on TMC2130)", "Hz",
+    "`spreadcycle`, `stealthchop`: f_CLK, the TMC chip's clock, which times t_OFF, t_BLANK and "
+    "the hysteresis decrement (SpreadCycle), TSTEP, the standstill detection and f_PWM "
+    "(StealthChop) "
+    "(internal: TMC2209 12 MHz trimmed, 11.5-12.5; TMC2130 13.2 typical, 10.1-17.2). In [4e6, "
+    "2e7]."};
+
 /// How a chip turns `run_current` into its regulated current.
 enum class CurrentScaling {
   kExact,       ///< an analog reference (A4988 I = VREF/(8·R_S), DRV8825 VREF/(5·R_S))

@@ -12,6 +12,7 @@
 #include "core/controllers/high_gain_foc.h"
 #include "core/controllers/servo.h"
 #include "core/controllers/spread_cycle.h"
+#include "core/controllers/stealth_chop.h"
 #include "core/controllers/stmms.h"
 #include "core/controllers/voltage_microstep.h"
 
@@ -19,7 +20,7 @@ namespace mjstepper {
 
 using Controller = std::variant<CurrentMicrostep,  // the default (index 0)
                                 VoltageMicrostep, IdealCurrent, Servo, Identification, Stmms,
-                                HighGainFoc, ConstantOffTime, SpreadCycle>;
+                                HighGainFoc, ConstantOffTime, SpreadCycle, StealthChop>;
 
 namespace internal {
 template <class V>

@@ -51,12 +51,6 @@ inline constexpr AttributeSpec kAttrHstrt{
 inline constexpr AttributeSpec kAttrHend{
     "hend", "integer", "the chip's (Klipper: 0 on TMC2209, 7 on TMC2130, 2 on TMC5160)", "—",
     "`spreadcycle`: HEND register 0..15, the hysteresis −3..12 units the cycle ends at."};
-inline constexpr AttributeSpec kAttrClockFrequency{
-    "clock_frequency", "real", "the chip's (12e6; 13.2e6 on TMC2130)", "Hz",
-    "f_CLK, the TMC chip's clock, which times t_OFF, t_BLANK and the hysteresis decrement "
-    "(internal: TMC2209 12 MHz trimmed, 11.5-12.5; TMC2130 13.2 typical, 10.1-17.2). In [4e6, "
-    "2e7]."};
-
 struct SpreadCycle {
   static constexpr const char* kName = "spreadcycle";
   static constexpr const char* kSummary =
