@@ -38,8 +38,9 @@ constexpr AttributeSpec kAttrInput{
 constexpr AttributeSpec kAttrRotorTeeth{"rotor_teeth", "integer", "preset (50)", "—",
                                         "Nr (\"pole pairs\" in Tsui): x = Nr·θ, full step "
                                         "2π/(4·Nr)."};
-constexpr AttributeSpec kAttrResistance{"resistance", "real", "preset (0.9)", "Ω",
-                                        "R per phase; > 0."};
+constexpr AttributeSpec kAttrResistance{
+    "resistance", "real", "preset (0.9)", "Ω",
+    "R per phase; > 0. With `heat` on, R at 20 °C (R20 of R(T), as datasheets print it)."};
 constexpr AttributeSpec kAttrInductance{"inductance", "real", "preset (2.2e-3)", "H",
                                         "L per phase; > 0."};
 constexpr AttributeSpec kAttrRotorInertia{
@@ -49,7 +50,8 @@ constexpr AttributeSpec kAttrRotorInertia{
     "itself (a body, or the joint's armature), nothing is checked."};
 constexpr AttributeSpec kAttrTorqueConstant{
     "torque_constant", "real", "preset (0.3)", "N·m/A (= V·s/rad)",
-    "Km, torque and back-EMF constant; > 0. Datasheet: Km = T_H/(√2·I_rated)."};
+    "Km, torque and back-EMF constant; > 0. Datasheet: Km = T_H/(√2·I_rated). With `heat` on, "
+    "Km at 20 °C."};
 constexpr AttributeSpec kAttrDetent{
     "detent", "list", "preset", "—, N·m, rad",
     "Detent harmonics of S-5 as triplets `order amplitude phase` separated by `;`, e.g. `4 0.006 "
@@ -103,6 +105,51 @@ constexpr AttributeSpec kAttrProfileJerk{"profile_jerk", "real", "1000", "rad/s�
                                          "Jerk limit of `scurve`; > 0."};
 constexpr AttributeSpec kAttrProfileStart{"profile_start", "real", "0", "s",
                                           "No move starts before this simulation time."};
+// Heat (SPEC §8, src/core/thermal.h).
+constexpr AttributeSpec kAttrHeat{
+    "heat", "name", "`auto`", "—",
+    "Winding and housing temperatures (SPEC §8): a two-node network, winding (`heat_capacity_"
+    "winding`) → `thermal_resistance_winding` → housing (`heat_capacity_housing`) → "
+    "`thermal_resistance_housing` → ambient, heated by the copper loss R(T)·(ia² + ib²) (iron "
+    "loss is not modelled), integrated exactly over each step; R(T) = R·(1 + α·(T − 20 °C)) and "
+    "Km(T) = Km·(1 + β·(T − 20 °C)) at the winding temperature, held over a step (`resistance` "
+    "and `torque_constant` are then the values at 20 °C). The drive's electronics keep the "
+    "nominal R and Km. `auto`: on when the four network constants are known (the catalogue "
+    "presets carry them; see \"Motor presets\") and the drive has windings (not "
+    "`ideal_current`); `on`: the same, an error if one is missing; `off`: R and Km fixed. "
+    "Signals `winding_temperature`, `housing_temperature`, `resistance`; a warning when the "
+    "winding passes `insulation_class`."};
+constexpr AttributeSpec kAttrAmbientTemperature{
+    "ambient_temperature", "real", "25", "°C",
+    "T_a, the air around the motor (`heat`). In [−50, 150]."};
+constexpr AttributeSpec kAttrInitialTemperature{
+    "initial_temperature", "real", "`ambient_temperature`", "°C",
+    "Winding and housing temperature when the drive starts (load, reset, keyframe: the plugin "
+    "state restarts there). In [−50, 400]."};
+constexpr AttributeSpec kAttrThermalResistanceWinding{
+    "thermal_resistance_winding", "real", "preset", "K/W",
+    "R_wh, winding → housing (`heat`); > 0. Catalogue presets: fitted to the datasheet's "
+    "thermal time constants and temperature rise (`src/core/presets.cc`)."};
+constexpr AttributeSpec kAttrThermalResistanceHousing{
+    "thermal_resistance_housing", "real", "preset", "K/W",
+    "R_ha, housing → ambient (`heat`); > 0. The steady winding rise is P·(R_wh + R_ha)."};
+constexpr AttributeSpec kAttrHeatCapacityWinding{"heat_capacity_winding", "real", "preset", "J/K",
+                                                 "C_w, the winding's heat capacity (`heat`); > 0."};
+constexpr AttributeSpec kAttrHeatCapacityHousing{
+    "heat_capacity_housing", "real", "preset", "J/K",
+    "C_h, the housing's (stator, end caps, what it is mounted on) heat capacity (`heat`); > 0."};
+constexpr AttributeSpec kAttrInsulationClass{
+    "insulation_class", "name", "`B`", "—",
+    "The winding's thermal class (IEC 60085): `A` 105 °C, `E` 120 °C, `B` 130 °C (the "
+    "catalogue motors'), `F` 155 °C, `H` 180 °C. A winding that passes it is said once per "
+    "actuator through `mju_warning`; the simulation goes on (`heat`)."};
+constexpr AttributeSpec kAttrResistanceCoefficient{
+    "resistance_temperature_coefficient", "real", "0.00393", "1/K",
+    "α of R(T) (`heat`): 0.00393 for annealed copper (IEC 60028). In [0, 0.01]."};
+constexpr AttributeSpec kAttrTorqueConstantCoefficient{
+    "torque_constant_temperature_coefficient", "real", "−0.0011", "1/K",
+    "β of Km(T) (`heat`): the magnet's remanence, −0.09 to −0.12 %/K for sintered NdFeB "
+    "(hybrid steppers), about −0.2 %/K for ferrite. In [−0.002, 0.002]."};
 constexpr AttributeSpec kAttrGauge{
     "gauge", "name", "`on`", "—",
     "`on`: draw the load-angle gauge on the rotor in every MuJoCo scene (viewer, renders): a "
@@ -111,14 +158,110 @@ constexpr AttributeSpec kAttrGauge{
     "steps. `off`: draw nothing."};
 
 const std::vector<const AttributeSpec*>& DriveAttributes() {
-  static const std::vector<const AttributeSpec*> list = {
-      &kAttrMotor,        &kAttrDrive,         &kAttrInput,          &kAttrRotorTeeth,
-      &kAttrResistance,   &kAttrInductance,    &kAttrTorqueConstant, &kAttrRotorInertia,
-      &kAttrDetent,       &kAttrBusVoltage,    &kAttrIsrPeriod,      &kAttrComputeDelay,
-      &kAttrPowerStage,   &kAttrEncoderCounts, &kAttrVelocityCutoff, &kAttrSpeedFeedback,
-      &kAttrProfile,      &kAttrProfileSpeed,  &kAttrProfileAccel,   &kAttrProfileJerk,
-      &kAttrProfileStart, &kAttrGauge};
+  static const std::vector<const AttributeSpec*> list = {&kAttrMotor,
+                                                         &kAttrDrive,
+                                                         &kAttrInput,
+                                                         &kAttrRotorTeeth,
+                                                         &kAttrResistance,
+                                                         &kAttrInductance,
+                                                         &kAttrTorqueConstant,
+                                                         &kAttrRotorInertia,
+                                                         &kAttrDetent,
+                                                         &kAttrBusVoltage,
+                                                         &kAttrIsrPeriod,
+                                                         &kAttrComputeDelay,
+                                                         &kAttrPowerStage,
+                                                         &kAttrEncoderCounts,
+                                                         &kAttrVelocityCutoff,
+                                                         &kAttrSpeedFeedback,
+                                                         &kAttrProfile,
+                                                         &kAttrProfileSpeed,
+                                                         &kAttrProfileAccel,
+                                                         &kAttrProfileJerk,
+                                                         &kAttrProfileStart,
+                                                         &kAttrHeat,
+                                                         &kAttrAmbientTemperature,
+                                                         &kAttrInitialTemperature,
+                                                         &kAttrThermalResistanceWinding,
+                                                         &kAttrThermalResistanceHousing,
+                                                         &kAttrHeatCapacityWinding,
+                                                         &kAttrHeatCapacityHousing,
+                                                         &kAttrInsulationClass,
+                                                         &kAttrResistanceCoefficient,
+                                                         &kAttrTorqueConstantCoefficient,
+                                                         &kAttrGauge};
   return list;
+}
+
+// A number in [low, high] if set (the attribute's own error otherwise), else `fallback`.
+double RealWithin(const AttributeSource& a, const AttributeSpec& spec, double fallback, double low,
+                  double high) {
+  const double value = a.Real(spec, fallback, Rule::kAny);
+  if (!(value >= low && value <= high)) {
+    ThrowBad(spec, a.Raw(spec).value_or(fmt::format("{:g}", value)),
+             fmt::format("must be in [{:g}, {:g}] ({})", low, high, spec.unit));
+  }
+  return value;
+}
+
+// Heat (SPEC §8): on, off or by what is known (kAttrHeat), with its attributes.
+std::optional<HeatParams> ParseHeat(const AttributeSource& a, const Preset& preset,
+                                    const std::string& drive) {
+  const std::string mode = a.Choice(kAttrHeat, "auto", {"auto", "on", "off"});
+  ThermalParams net = preset.thermal.value_or(ThermalParams{});  // zeros: unknown
+  const std::pair<const AttributeSpec*, double*> constants[] = {
+      {&kAttrThermalResistanceWinding, &net.resistance_winding},
+      {&kAttrThermalResistanceHousing, &net.resistance_housing},
+      {&kAttrHeatCapacityWinding, &net.capacity_winding},
+      {&kAttrHeatCapacityHousing, &net.capacity_housing}};
+  std::vector<std::string> missing;
+  for (const auto& [spec, value] : constants) {
+    *value = a.Real(*spec, *value, Rule::kPositive);
+    if (!(*value > 0)) missing.emplace_back(spec->name);
+  }
+  const bool windings = drive != "ideal_current";
+  if (mode == "on" && !windings) {
+    ThrowBad(kAttrHeat, "on", "drive ideal_current has no windings, so no copper loss to heat");
+  }
+  if (mode == "on" && !missing.empty()) {
+    ThrowBad(kAttrHeat, "on",
+             fmt::format("motor {} has no thermal network: give {}", preset.name,
+                         fmt::join(missing, ", ")));
+  }
+  const bool on = mode == "on" || (mode == "auto" && missing.empty() && windings);
+  const AttributeSpec* const heat_only[] = {
+      &kAttrAmbientTemperature,       &kAttrInitialTemperature,    &kAttrThermalResistanceWinding,
+      &kAttrThermalResistanceHousing, &kAttrHeatCapacityWinding,   &kAttrHeatCapacityHousing,
+      &kAttrInsulationClass,          &kAttrResistanceCoefficient, &kAttrTorqueConstantCoefficient};
+  if (!on) {
+    for (const AttributeSpec* spec : heat_only) {
+      if (const auto raw = a.Raw(*spec)) {
+        const std::string why =
+            mode == "off" ? "heat = off"
+            : !windings   ? "heat off (drive ideal_current has no windings)"
+                          : fmt::format("heat off (motor {} has no thermal network; give {})",
+                                        preset.name, fmt::join(missing, ", "));
+        ThrowBad(*spec, *raw, fmt::format("has no effect with {}", why));
+      }
+    }
+    return std::nullopt;
+  }
+  HeatParams heat{.network = net};
+  heat.ambient_temperature =
+      RealWithin(a, kAttrAmbientTemperature, heat.ambient_temperature, -50, 150);
+  heat.initial_temperature =
+      RealWithin(a, kAttrInitialTemperature, heat.ambient_temperature, -50, 400);
+  const std::string insulation = a.Choice(kAttrInsulationClass, "B", {"A", "E", "B", "F", "H"});
+  heat.insulation_limit = insulation == "A"   ? 105
+                          : insulation == "E" ? 120
+                          : insulation == "F" ? 155
+                          : insulation == "H" ? 180
+                                              : 130;
+  heat.resistance_coefficient =
+      RealWithin(a, kAttrResistanceCoefficient, heat.resistance_coefficient, 0, 0.01);
+  heat.torque_constant_coefficient = RealWithin(a, kAttrTorqueConstantCoefficient,
+                                                heat.torque_constant_coefficient, -0.002, 0.002);
+  return heat;
 }
 
 DriveConfig Parse(const AttributeSource& a) {
@@ -194,6 +337,7 @@ DriveConfig Parse(const AttributeSource& a) {
                                  .isr_period = c.isr_period,
                                  .bus_voltage = c.bus_voltage};
   c.controller = MakeController(drive, a, c.motor, constants);
+  c.heat = ParseHeat(a, *preset, drive);
   // An attribute the chosen controller does not read is a mistake, not a silent no-op.
   const std::vector<const AttributeSpec*> used = ControllerAttributes(drive);
   for (const AttributeSpec* spec : AllControllerAttributes()) {
@@ -300,11 +444,13 @@ std::string AttributeTableMarkdown() {
 
 std::string PresetTableMarkdown() {
   constexpr const char* kRow =
-      "| `{}` | {} | {} | {:g} | {:g} | {:g} | {:g} | {:g} | {:g} | {:g} | {:.3g} | {} | {:g} |\n";
+      "| `{}` | {} | {} | {:g} | {:g} | {:g} | {:g} | {:g} | {:g} | {:g} | {:.3g} | {} | {:g} | {} "
+      "|\n";
   std::string out =
       "| `motor` | what | Nr | R (Ω) | L (H) | Km (N·m/A) | J (kg·m²) | B (N·m·s/rad) | Fs (N·m) | "
-      "rated current (A) | holding torque √2·Km·I (N·m) | detent harmonics | τl (N·m) |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+      "rated current (A) | holding torque √2·Km·I (N·m) | detent harmonics | τl (N·m) | heat: "
+      "R_wh, R_ha (K/W); C_w, C_h (J/K) |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const std::string& name : PresetNames()) {
     const Preset preset = *FindPreset(name);
     const MotorParams& m = preset.motor;
@@ -312,6 +458,13 @@ std::string PresetTableMarkdown() {
     for (const DetentHarmonic& h : m.detent) {
       detent.push_back(fmt::format("h {}: {:g} N·m", h.order, h.amplitude));
     }
+    const std::string heat =
+        preset.thermal
+            ? fmt::format("{:g}, {:g}; {:g}, {:g} ({})", preset.thermal->resistance_winding,
+                          preset.thermal->resistance_housing, preset.thermal->capacity_winding,
+                          preset.thermal->capacity_housing,
+                          preset.thermal_sheet ? preset.thermal_sheet->source : "")
+            : std::string("none (`heat` off unless all four are given)");
     const std::string what = preset.datasheet
                                  ? fmt::format("{}; from its datasheet: {}", preset.description,
                                                preset.datasheet->source)
@@ -320,7 +473,7 @@ std::string PresetTableMarkdown() {
                        m.torque_constant, m.rotor_inertia, m.viscous_damping, m.static_friction,
                        m.rated_current, std::sqrt(2.0) * m.torque_constant * m.rated_current,
                        detent.empty() ? "none" : fmt::format("{}", fmt::join(detent, ", ")),
-                       m.load_torque);
+                       m.load_torque, heat);
   }
   return out;
 }

@@ -62,6 +62,11 @@ bool IsStepperInstance(const mjModel* m, int instance) {
 
 static_assert(kMaxCommand == mjMAXVAL, "core's bound on a ctrl is MuJoCo's mju_isBad bound");
 
+// The IEC 60085 letter of an insulation limit (°C), as the `insulation_class` attribute names it.
+const char* InsulationClassName(double limit) {
+  return limit == 105 ? "A" : limit == 120 ? "E" : limit == 155 ? "F" : limit == 180 ? "H" : "B";
+}
+
 }  // namespace
 
 std::string VersionMismatch(int built_for, int running) {
@@ -171,6 +176,7 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
   stepper->state_size_ = stepper->drive_->layout().total();
   stepper->gauge_ = std::get<StepperConfig>(parsed).gauge;
 
+  stepper->insulation_warned_ = std::make_unique<std::atomic<bool>[]>(bound.size());
   for (int s = 0; s < m->nsensor; ++s) {
     if (m->sensor_plugin[s] == instance) {
       return fail(
@@ -212,11 +218,13 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
     // The rotor's inertia is MuJoCo's business (armature); the preset knows its value.
     const double rotor_inertia = stepper->drive_->config().motor.rotor_inertia;  // kg·m²
     if (m->actuator_armature[a] < rotor_inertia * (1 - 1e-9)) {
-      return fail_for(actuator, fmt::format(
-          "the motor's rotor inertia J = {:g} kg·m² is not in the model (armature = {:g}); "
-          "add armature=\"{:g}\" to the actuator (MuJoCo reflects it through gear²), or set "
-          "rotor_inertia=\"0\" if the model carries the rotor itself",
-          rotor_inertia, m->actuator_armature[a], rotor_inertia));
+      return fail_for(
+          actuator,
+          fmt::format(
+              "the motor's rotor inertia J = {:g} kg·m² is not in the model (armature = {:g}); "
+              "add armature=\"{:g}\" to the actuator (MuJoCo reflects it through gear²), or set "
+              "rotor_inertia=\"0\" if the model carries the rotor itself",
+              rotor_inertia, m->actuator_armature[a], rotor_inertia));
     }
     // The step the rotor alone needs (a load only lowers ωn): warn, as MuJoCo warns, if coarser.
     // Stiffness: the drive's T' plus the detent's worst case, Σh h·Nr·Kdh (DetentStiffness).
@@ -341,6 +349,19 @@ void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
       WarnOnce(kCauseStatus + static_cast<unsigned>(status),
                fmt::format("mjstepper: {} at time {:g} s (timestep {:g} s): {}", actuator_name(a),
                            t1, timestep, Describe(status)));
+    }
+    // Heat: a winding past its insulation class is said once per actuator (SPEC §8).
+    if (const std::optional<HeatParams>& heat = drive_->config().heat;
+        heat && state.winding_temperature > heat->insulation_limit &&
+        !insulation_warned_[slot].exchange(true)) {
+      mju_warning("%s",
+                  fmt::format("mjstepper: {} at time {:g} s: winding temperature {:.1f} °C "
+                              "passed its insulation class {} ({:g} °C); the simulation "
+                              "goes on, but a real winding ages fast there: lower the "
+                              "current or cool the motor",
+                              actuator_name(a), t1, state.winding_temperature,
+                              InsulationClassName(heat->insulation_limit), heat->insulation_limit)
+                      .c_str());
     }
   }
 }

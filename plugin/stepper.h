@@ -7,7 +7,8 @@
 //     capability, reading the signals of the drive on that actuator.
 // State: the drive's StateLayout (core, controller, profile) per bound actuator in plugin_state;
 // plugin_data holds the parsed configuration and the actuators' addresses (constant after init),
-// and diagnostic flags (which causes of a warning were reported), never simulation state.
+// and diagnostic flags (which causes of a warning were reported, which windings passed their
+// insulation class), never simulation state.
 #ifndef MJSTEPPER_PLUGIN_STEPPER_H_
 #define MJSTEPPER_PLUGIN_STEPPER_H_
 
@@ -111,6 +112,8 @@ class Stepper {
   // The causes (bit 1 << Cause) already reported by this instance on this mjData: a diagnostic,
   // not simulation state.
   mutable std::atomic<unsigned> warned_{0};
+  // Per bound actuator: whether its winding's passing the insulation class was said (heat).
+  mutable std::unique_ptr<std::atomic<bool>[]> insulation_warned_;
   std::vector<Actuator> actuators_;  // bound actuators, in id order
 };
 

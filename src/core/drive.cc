@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -74,6 +75,18 @@ void Validate(const DriveConfig& c) {
           Microsteps(c.controller),
           "input = steps counts microsteps: it needs a drive with a microstep table and "
           "microsteps >= 1");
+  if (c.heat) {
+    Validate(*c.heat);
+    const bool ideal = std::visit(
+        [](const auto& unit) {
+          return requires { std::decay_t<decltype(unit)>::kIdealSource; };
+        },
+        c.controller);
+    Require(!ideal, "heat (ThermalParams set)", 1,
+            "ideal_current has no windings, so no copper loss: heat needs a drive with windings");
+    Require(c.solver == WindingSolver::kExact, "heat (ThermalParams set)", 1,
+            "heat needs the exact winding solver, whose energies give the copper loss");
+  }
   if (c.profile.kind != ProfileKind::kNone) {
     Require(c.input == InputMode::kPosition, "input (0: position, 1: velocity, 2: steps)",
             static_cast<int>(c.input), "a motion profile needs input = position (ctrl = target)");
@@ -151,6 +164,11 @@ Drive::Drive(DriveConfig config) : config_(std::move(config)) {
        {config_.isr_period, config_.compute_delay, config_.isr_period - config_.compute_delay}) {
     if (length > 0) decay_kernels_.push_back(DecayKernel(motor, length));
   }
+  if (config_.heat) {
+    thermal_.emplace(config_.heat->network);
+    winding_motor_ = motor;
+    winding_motor_.detent.clear();
+  }
 }
 
 DriveState Drive::Load(const double* values) const {
@@ -207,9 +225,12 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   s.full_step_time = -1;
   s.full_step_theta = theta;
   s.current_scale = 1;
+  // Winding and housing at the initial temperature (heat), else at the one R20 stands for.
+  s.winding_temperature = s.housing_temperature =
+      config_.heat ? config_.heat->initial_temperature : kReferenceTemperature;
   // At rest v = R·i holds the current constant (S-3 with ω = 0); a switching bridge starts its
   // chopper cycle there instead (switching.h).
-  PhaseVector voltage = config_.motor.resistance * current;
+  PhaseVector voltage = ResistanceAt(s.winding_temperature) * current;
   std::visit(
       [&](const auto& unit) {
         using C = std::decay_t<decltype(unit)>;
@@ -242,12 +263,18 @@ void Drive::AnchorAt(DriveCoreState* s, double time, bool coarse) const {
 [[gnu::cold]] void Drive::Restart(DriveState* s, double time, double theta, double command,
                                   bool keep_energies) const {
   const double energies[3] = {s->energy_input, s->energy_copper, s->energy_mechanical};
+  const double temperatures[2] = {s->winding_temperature, s->housing_temperature};
   *s = Rest(time, theta, command);
   // (Only finite ones: the state a restart leaves is finite, whatever the one it replaces.)
   if (keep_energies && std::isfinite(energies[0] + energies[1] + energies[2])) {
     s->energy_input = energies[0];
     s->energy_copper = energies[1];
     s->energy_mechanical = energies[2];
+  }
+  // The motor keeps its heat (the step not run adds none).
+  if (keep_energies && std::isfinite(temperatures[0] + temperatures[1])) {
+    s->winding_temperature = temperatures[0];
+    s->housing_temperature = temperatures[1];
   }
 }
 
@@ -327,9 +354,14 @@ AdvanceStatus Drive::Advance(DriveState* s, double t0, double t1, double theta1,
     s->next_tick = 0;
   }
   const bool coarse = CoarseTime(t0) || CoarseTime(t1);
-  const bool bounded = std::visit(
-      [&](const auto& unit) { return AdvanceWith(unit, s, t0, t1, theta1, command, coarse); },
-      config_.controller);
+  const bool bounded = thermal_ ? AdvanceHot(s, t0, t1, theta1, command, coarse)
+                                : std::visit(
+                                      [&](const auto& unit) {
+                                        double copper = 0;  // (unused without heat)
+                                        return AdvanceWith(unit, ColdWinding(), s, t0, t1, theta1,
+                                                           command, coarse, &copper);
+                                      },
+                                      config_.controller);
   // A stored double that is not finite (a user's write, a corrupt file) makes the loop's clock
   // resynchronise and its event bound end it, and the state it leaves is not finite: one check
   // here, after the step, finds it (from a finite state no input that passed the checks above
@@ -342,11 +374,62 @@ AdvanceStatus Drive::Advance(DriveState* s, double t0, double t1, double theta1,
   return coarse ? AdvanceStatus::kCoarseTime : AdvanceStatus::kOk;
 }
 
+// Inlined into the event loop, as it was before heat (a call here costs 1 % of a chopper step).
+[[gnu::always_inline]] inline DecayKernel Drive::DecayFor(const StepWinding& winding,
+                                                          double length) {
+  for (int i = 0; i < winding.kernel_count; ++i) {
+    const DecayKernel& k = winding.kernels[i];
+    if (std::abs(length - k.h) <= 1e-9 * length) {
+      return winding.made == nullptr ? k : MadeKernel(winding, i);
+    }
+  }
+  return DecayKernel(*winding.motor, length);
+}
+
+DecayKernel Drive::MadeKernel(const StepWinding& winding, int i) {
+  DecayKernel& made = winding.made[i];
+  if (made.h < 0) made = DecayKernel(*winding.motor, winding.kernels[i].h);
+  return made;
+}
+
+bool Drive::AdvanceHot(DriveState* s, double t0, double t1, double theta1, double command,
+                       bool coarse) const {
+  // The winding's constants over the step: R(T) and Km(T) at the step's starting winding
+  // temperature (thermal.h), held over the step, with the clock's decay kernels for that R made
+  // on first use.
+  const double winding_temperature = s->winding_temperature;  // °C, at t0
+  MotorParams hot = winding_motor_;                           // (no detent list: no allocation)
+  hot.resistance = ResistanceAt(winding_temperature);
+  hot.torque_constant = TorqueConstantAt(winding_temperature);
+  std::array<DecayKernel, 3> made;  // h = −1: not made yet
+  StepWinding winding = ColdWinding();
+  winding.motor = &hot;
+  winding.made = made.data();
+  double copper = 0;  // J, the step's copper loss
+  const bool bounded = std::visit(
+      [&](const auto& unit) {
+        return AdvanceWith(unit, winding, s, t0, t1, theta1, command, coarse, &copper);
+      },
+      config_.controller);
+  if (t1 > t0) {
+    // The network over the step with the copper loss's mean power held: exact (thermal.h).
+    const double ambient = config_.heat->ambient_temperature;  // °C
+    const std::array<double, 2> rise =
+        thermal_->Step({winding_temperature - ambient, s->housing_temperature - ambient},
+                       copper / (t1 - t0), t1 - t0);
+    s->winding_temperature = ambient + rise[0];
+    s->housing_temperature = ambient + rise[1];
+  }
+  return bounded;
+}
+
 template <class C>
-bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1, double theta1,
-                        double command, bool coarse) const {
+bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveState* s, double t0,
+                        double t1, double theta1, double command, bool coarse,
+                        double* copper) const {
   bool bounded = true;
-  const MotorParams& motor = config_.motor;
+  const MotorParams& motor = *winding.motor;
+  double step_copper = 0;                                    // J
   const double h = t1 - t0;                                  // s
   const double theta0 = s->theta;                            // rad
   const double omega = h > 0 ? (theta1 - theta0) / h : 0.0;  // rad/s, constant over the step
@@ -434,13 +517,14 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
         const double length = t_end - t;
         if (std::abs(length - kernel.h) > 1e-9 * length) {
           if (!speed) speed.emplace(motor, omega, h, s->rotor_phasor(), phasor1);
-          kernel = WindingKernel(*speed, DecayFor(length));
+          kernel = WindingKernel(*speed, DecayFor(winding, length));
         }
         IntervalEnergy e;
         current = AdvanceInterval(motor, kernel, current, voltage, phasor, &e);
         phasor *= kernel.rotation;
         s->energy_input += e.input;
         s->energy_copper += e.copper;
+        step_copper += e.copper;
         s->energy_mechanical += e.mechanical;
       } else {
         current = IntegrateWindingRk4(motor, current, voltage, theta_at(t), omega, t_end - t,
@@ -472,7 +556,7 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
           s->full_step = step;
           s->full_step_time = now;
           s->full_step_theta = theta_now;
-          s->stallguard = guard.Result(constants_.torque_constant, speed, current,
+          s->stallguard = guard.Result(TorqueConstantAt(s->winding_temperature), speed, current,
                                        UnitPhasor(constants_.rotor_teeth * theta_now));
           s->stall = guard.Stall(s->stallguard, step_rate) ? 1 : 0;
           if (s->stall != 0 && s->first_stall_time < 0) s->first_stall_time = now;
@@ -587,6 +671,7 @@ bool Drive::AdvanceWith(const C& controller, DriveState* s, double t0, double t1
       s->last_slip_time = t1;
     }
   }
+  *copper = step_copper;
   return bounded;
 }
 
@@ -594,11 +679,18 @@ double Drive::FullStep(double theta_cmd) const {
   return std::floor(4.0 * constants_.rotor_teeth * theta_cmd / kTwoPi);  // S-1: 4 per cycle
 }
 
-DecayKernel Drive::DecayFor(double length) const {
-  for (const DecayKernel& k : decay_kernels_) {
-    if (std::abs(length - k.h) <= 1e-9 * length) return k;
-  }
-  return DecayKernel(config_.motor, length);
+double Drive::ResistanceAt(double winding_temperature) const {
+  const double r20 = config_.motor.resistance;  // Ω
+  return config_.heat
+             ? r20 * TemperatureFactor(config_.heat->resistance_coefficient, winding_temperature)
+             : r20;
+}
+
+double Drive::TorqueConstantAt(double winding_temperature) const {
+  const double km20 = config_.motor.torque_constant;  // N·m/A
+  return config_.heat ? km20 * TemperatureFactor(config_.heat->torque_constant_coefficient,
+                                                 winding_temperature)
+                      : km20;
 }
 
 PhaseVector Drive::RotorPhasor(bool started, double stored_theta, PhaseVector stored_phasor,
@@ -608,8 +700,9 @@ PhaseVector Drive::RotorPhasor(bool started, double stored_theta, PhaseVector st
                                           : UnitPhasor(constants_.rotor_teeth * theta);
 }
 
-std::pair<double, double> Drive::Torques(PhaseVector current, PhaseVector z) const {
-  const double torque_em = constants_.torque_constant * (std::conj(z) * current).imag();  // S-4
+std::pair<double, double> Drive::Torques(PhaseVector current, PhaseVector z,
+                                         double torque_constant) const {
+  const double torque_em = torque_constant * (std::conj(z) * current).imag();  // S-4
   // S-5: −Σh Kdh·sin(h·x + φh) = −Im(Σh wh·z^h) = −Im(z·(w1 + z·(w2 + z·(...))))
   PhaseVector sum(0, 0);
   for (auto w = detent_weights_.rbegin(); w != detent_weights_.rend(); ++w) sum = z * (*w + sum);
@@ -618,7 +711,8 @@ std::pair<double, double> Drive::Torques(PhaseVector current, PhaseVector z) con
 
 double Drive::Torque(const DriveCoreState& s, double theta) const {
   const auto [torque_em, torque_detent] =
-      Torques(s.current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta));
+      Torques(s.current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta),
+              TorqueConstantAt(s.winding_temperature));
   return torque_em + torque_detent;
 }
 
@@ -628,8 +722,12 @@ double Drive::StoredTorque(const double* values, double theta) const {
   const PhaseVector z =
       RotorPhasor(field(offsetof(S, started)) != 0, field(offsetof(S, theta)),
                   {field(offsetof(S, rotor_cos)), field(offsetof(S, rotor_sin))}, theta);
+  // Km at the step's starting winding temperature, as over the step (Advance).
+  const double torque_constant = thermal_
+                                     ? TorqueConstantAt(field(offsetof(S, winding_temperature)))
+                                     : constants_.torque_constant;
   const auto [torque_em, torque_detent] =
-      Torques({field(offsetof(S, current_a)), field(offsetof(S, current_b))}, z);
+      Torques({field(offsetof(S, current_a)), field(offsetof(S, current_b))}, z, torque_constant);
   return torque_em + torque_detent;
 }
 
@@ -648,7 +746,8 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
   out.theta_cmd = s.theta_cmd;
   out.omega_cmd = s.omega_cmd;
   std::tie(out.torque_em, out.torque_detent) =
-      Torques(s.current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta));
+      Torques(s.current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta),
+              TorqueConstantAt(s.winding_temperature));
   out.torque_total = out.torque_em + out.torque_detent;
   out.load_angle = motor.rotor_teeth * (s.theta_cmd - theta);  // S-12
   out.position_error = theta - s.theta_cmd;
@@ -663,6 +762,9 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
   out.stall = s.stall;
   out.first_stall_time = s.first_stall_time;
   out.current_scale = s.current_scale;
+  out.winding_temperature = s.winding_temperature;
+  out.housing_temperature = s.housing_temperature;
+  out.resistance = ResistanceAt(s.winding_temperature);
   return out;
 }
 

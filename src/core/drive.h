@@ -40,6 +40,7 @@
 #include "core/motor_params.h"
 #include "core/power_stage.h"
 #include "core/sensors/velocity_estimator.h"
+#include "core/thermal.h"
 #include "core/winding.h"
 
 namespace mjstepper {
@@ -69,6 +70,11 @@ struct DriveConfig {
   MotionProfile profile;  ///< kNone: ctrl is the command itself
   WindingSolver solver = WindingSolver::kExact;
   double rk4_step = 1e-6;  ///< s, step of the kRk4 reference
+  /// Heat (SPEC §8, thermal.h): unset, R and Km are the motor's own (its R20, Km20) for ever; set,
+  /// the winding's temperature sets R(T) and Km(T) over each step, and the copper loss warms it.
+  /// Needs windings (not `ideal_current`) and the exact solver (the kRk4 reference has no
+  /// energies).
+  std::optional<HeatParams> heat;
 };
 
 /// Throws std::invalid_argument naming the field, value and rule.
@@ -181,14 +187,16 @@ struct DriveCoreState {
   double slip_origin = 0;      ///< slip_cell at the start: slips = slip_cell − slip_origin
   double last_slip_time = -1;  ///< s, end of the step of the last slip; −1: none yet
   // StallGuard and CoolStep (sensors/stallguard.h), for drives that have them:
-  double stallguard = 0;         ///< SG_RESULT at the last full step (full scale at rest)
-  double stall = 0;              ///< 1 while SG_RESULT flags a stall
-  double first_stall_time = -1;  ///< s, the tick of the first stall flag; −1: none yet
-  double full_step = 0;          ///< the full step (floor of 4·Nr·θcmd/2π) last measured at
-  double full_step_time = -1;    ///< s, the tick it began at; −1: not yet (from rest)
-  double full_step_theta = 0;    ///< rad, the rotor angle then
-  double current_scale = 1;      ///< CoolStep's scale of the run current
-  double coolstep_count = 0;     ///< readings above the upper band since the last fall
+  double stallguard = 0;           ///< SG_RESULT at the last full step (full scale at rest)
+  double stall = 0;                ///< 1 while SG_RESULT flags a stall
+  double first_stall_time = -1;    ///< s, the tick of the first stall flag; −1: none yet
+  double full_step = 0;            ///< the full step (floor of 4·Nr·θcmd/2π) last measured at
+  double full_step_time = -1;      ///< s, the tick it began at; −1: not yet (from rest)
+  double full_step_theta = 0;      ///< rad, the rotor angle then
+  double current_scale = 1;        ///< CoolStep's scale of the run current
+  double coolstep_count = 0;       ///< readings above the upper band since the last fall
+  double winding_temperature = 0;  ///< T_w, °C (thermal.h); kReferenceTemperature without heat
+  double housing_temperature = 0;  ///< T_h, °C
 
   PhaseVector current() const { return {current_a, current_b}; }
   PhaseVector rotor_phasor() const { return {rotor_cos, rotor_sin}; }
@@ -241,8 +249,11 @@ struct DriveSignals {
   double first_stall_time = -1;                 ///< s; −1 before the first stall flag
   double current_scale = 1;                     ///< CoolStep's scale
   double energy_input = 0, energy_copper = 0, energy_mechanical = 0;  ///< J
-  double theta_meas = 0;  ///< rad, encoder angle at the last tick
-  double omega_est = 0;   ///< rad/s, velocity estimate at the last tick
+  double theta_meas = 0;           ///< rad, encoder angle at the last tick
+  double omega_est = 0;            ///< rad/s, velocity estimate at the last tick
+  double winding_temperature = 0;  ///< °C (20 without heat)
+  double housing_temperature = 0;  ///< °C (20 without heat)
+  double resistance = 0;           ///< Ω, R(T_w) per phase (R20 without heat)
 };
 
 class Drive {
@@ -274,7 +285,8 @@ class Drive {
   /// controller has no microstep table.
   double StepAngle() const { return step_angle_; }
 
-  /// τm + τdet at rotor angle θ with the state's currents (N·m).
+  /// τm + τdet at rotor angle θ with the state's currents (N·m), τm with Km at the state's
+  /// winding temperature (with heat).
   double Torque(const DriveCoreState& state, double theta) const;
   /// The same from a started state's stored doubles (layout().total() of them), reading only
   /// what the torque needs: the actuator force of every simulation step.
@@ -304,6 +316,14 @@ class Drive {
   /// τl/Km for Kim's controllers, 0 for the servo modes.
   double RestCurrentMagnitude() const;
 
+  /// The winding's R (Ω) and Km (N·m/A) at winding temperature T (°C): R20·(1 + α·(T − 20)),
+  /// Km20·(1 + β·(T − 20)) with heat (thermal.h), the motor's own without.
+  double ResistanceAt(double winding_temperature) const;
+  double TorqueConstantAt(double winding_temperature) const;
+
+  /// The heat network (thermal.h), if the drive has heat.
+  const std::optional<ThermalNetwork>& thermal() const { return thermal_; }
+
   /// Holding stiffness at rest, N·m/rad: T' = Nr·Km·I (SPEC §1, T(1)) for the open-loop drives;
   /// the position loop's for the closed-loop ones (servo Kp; J·(k1 + k1p·k2) for Kim's, K(26));
   /// 0 in identification mode.
@@ -315,11 +335,35 @@ class Drive {
   double DetentStiffness() const;
 
  private:
+  // The winding's constants over one step: the motor's, or with heat the ones at the step's
+  // starting temperature; and the decay kernels of the clock's interval lengths (T, D, T − D) for
+  // them: the ones made at load, or with heat made on first use in the step (`made`, h < 0 until
+  // then: a chopper's intervals rarely have the clock's lengths).
+  struct StepWinding {
+    const MotorParams* motor = nullptr;
+    const DecayKernel* kernels = nullptr;  // made at load, for the motor's R: their lengths
+    int kernel_count = 0;
+    DecayKernel* made = nullptr;  // with heat: kernel_count slots for this step's R
+  };
+
+  // The winding of a drive without heat: the motor and the kernels made at load.
+  StepWinding ColdWinding() const {
+    return {.motor = &config_.motor,
+            .kernels = decay_kernels_.data(),
+            .kernel_count = static_cast<int>(decay_kernels_.size())};
+  }
+
+  // The step with heat: AdvanceWith on the winding at its starting temperature, then the thermal
+  // network over the step with the step's copper loss. False if it hit kMaxEventsPerAdvance.
+  bool AdvanceHot(DriveState* s, double t0, double t1, double theta1, double command,
+                  bool coarse) const;
+
   // The step itself, on checked input; false if it hit kMaxEventsPerAdvance. `coarse`: work in
-  // the step's frame t − t0 (CoarseTime), else in absolute time.
+  // the step's frame t − t0 (CoarseTime), else in absolute time. Sets *copper to the step's
+  // copper loss, J.
   template <class C>
-  bool AdvanceWith(const C& controller, DriveState* s, double t0, double t1, double theta1,
-                   double command, bool coarse) const;
+  bool AdvanceWith(const C& controller, const StepWinding& winding, DriveState* s, double t0,
+                   double t1, double theta1, double command, bool coarse, double* copper) const;
 
   // Sets the clock's anchor at the first tick of the grid k·T at or after `time`, or at `time`
   // itself when the grid is not representable there (coarse); n = 0.
@@ -335,16 +379,19 @@ class Drive {
   // e^{jNr·θ}: the stored one when θ is the state's, else by sincos.
   PhaseVector RotorPhasor(bool started, double stored_theta, PhaseVector stored_phasor,
                           double theta) const;
-  // τm + τdet from the currents and z = e^{jx} alone: τdet = −Im(Σh wh·z^h), wh = Kdh·e^{jφh},
+  // τm + τdet from the currents, z = e^{jx} and Km alone: τdet = −Im(Σh wh·z^h), wh = Kdh·e^{jφh},
   // by Horner's rule.
-  std::pair<double, double> Torques(PhaseVector current, PhaseVector z) const;
+  std::pair<double, double> Torques(PhaseVector current, PhaseVector z,
+                                    double torque_constant) const;
 
   // The full step a commanded angle (rad) is in: floor(4·Nr·θcmd/2π), S-1.
   double FullStep(double theta_cmd) const;
 
-  // The decay part of an interval's kernel (winding.h): from decay_kernels_ for the clock's own
-  // lengths, else computed.
-  DecayKernel DecayFor(double length) const;
+  // The decay part of an interval's kernel (winding.h): the step's kernel for one of the clock's
+  // own lengths, else computed.
+  static DecayKernel DecayFor(const StepWinding& winding, double length);
+  // With heat: slot i of the step's kernels, made on first use.
+  static DecayKernel MadeKernel(const StepWinding& winding, int i);
 
   DriveConfig config_;
   std::vector<PhaseVector> detent_weights_;  // wh = Σ Kdh·e^{jφh} at index h − 1, N·m (S-5)
@@ -356,6 +403,10 @@ class Drive {
   double velocity_gain_ = 0;                // its a = 1 − exp(−2π·fc·T), computed once
   std::vector<DecayKernel> decay_kernels_;  // for T, D and T − D, computed once
   double step_angle_ = 0;                   // rad per microstep (StepAngle)
+  std::optional<ThermalNetwork> thermal_;   // with heat: the network, decomposed once
+  MotorParams winding_motor_;               // with heat: the motor without its detent list, which
+                                            // the winding never reads (copied per step, no
+                                            // allocation)
 };
 
 }  // namespace mjstepper

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/motor_params.h"
+#include "core/thermal.h"
 
 namespace mjstepper {
 
@@ -29,12 +30,28 @@ struct Datasheet {
 /// order of 1e-5 to 1e-4 for a NEMA 17 rotor alone; an estimate, and a MuJoCo model value).
 MotorParams FromDatasheet(const Datasheet& d);
 
+/// What a catalogue motor's thermal network (ThermalParams) was fitted to (presets.cc), SI units.
+/// The fit: R_wh + R_ha such that the winding's steady rise at the rated current (both phases at
+/// I_r, R(T) included, ambient 25 °C) is `rated_rise`; C_w = copper_fraction·mass·385 J/(kg·K)
+/// (copper's specific heat); R_wh/R_ha and C_h such that the winding and the housing reach
+/// 1 − 1/e of their final rises under a held power after the two time constants.
+struct ThermalSheet {
+  const char* source = "";           ///< document, and which numbers are estimates
+  double winding_time_constant = 0;  ///< s
+  double surface_time_constant = 0;  ///< s, the housing's
+  double rated_rise = 0;             ///< K
+  double mass = 0;                   ///< kg, the motor's
+  double copper_fraction = 0.12;     ///< of the mass (an estimate for every motor here)
+};
+
 struct Preset {
   std::string name;
   std::string description;
   MotorParams motor;
-  int encoder_counts = 0;              ///< counts per revolution of the paper's encoder (S-16)
-  std::optional<Datasheet> datasheet;  ///< catalogue motors: what `motor` was made from
+  int encoder_counts = 0;                ///< counts per revolution of the paper's encoder (S-16)
+  std::optional<Datasheet> datasheet;    ///< catalogue motors: what `motor` was made from
+  std::optional<ThermalParams> thermal;  ///< the heat network (SPEC §8); paper motors: none
+  std::optional<ThermalSheet> thermal_sheet;  ///< what `thermal` was fitted to
 };
 
 /// `tsui2009`, `kim2016`, `bodson1993` and the catalogue motors; std::nullopt for any other name.

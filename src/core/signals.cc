@@ -23,7 +23,8 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
       {"current_ref_b", "A", "the same for phase B", &S::current_ref_b},
       {"theta_cmd", "rad", "commanded rotor angle θcmd (θd of the motion profile)", &S::theta_cmd},
       {"omega_cmd", "rad/s", "commanded rotor speed", &S::omega_cmd},
-      {"torque_em", "N·m", "electromagnetic torque τm (S-4)", &S::torque_em},
+      {"torque_em", "N·m", "electromagnetic torque τm (S-4), with Km(T_w) under `heat`",
+       &S::torque_em},
       {"torque_detent", "N·m", "detent torque τdet (S-5)", &S::torque_detent},
       {"torque_total", "N·m",
        "τm + τdet, the torque the motor makes on its rotor: the actuator force before MuJoCo's "
@@ -44,7 +45,9 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
        "∫(va·ia + vb·ib) dt since the start; S-8 holds between the three energies; 0 under "
        "`ideal_current`, which has no windings",
        &S::energy_input},
-      {"energy_copper", "J", "∫R·(ia² + ib²) dt", &S::energy_copper},
+      {"energy_copper", "J",
+       "∫R·(ia² + ib²) dt, R = R(T_w) under `heat`: the heat the winding receives",
+       &S::energy_copper},
       {"energy_mechanical", "J", "∫τm·ω dt", &S::energy_mechanical},
       {"theta_meas", "rad",
        "encoder angle at the last interrupt (S-16); `ideal_current` has no interrupts and keeps "
@@ -66,6 +69,16 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
        "CoolStep's scale of the run current (1 without CoolStep): the table's peak is "
        "√2·run_current·current_scale",
        &S::current_scale},
+      {"winding_temperature", "°C",
+       "winding temperature T_w (SPEC §8, two-node network winding → housing → ambient, heated by "
+       "the copper loss); 20 (the temperature R and Km stand for) when `heat` is off",
+       &S::winding_temperature},
+      {"housing_temperature", "°C", "housing temperature T_h; 20 when `heat` is off",
+       &S::housing_temperature},
+      {"resistance", "Ω",
+       "phase resistance at the winding temperature, R(T_w) = R·(1 + α·(T_w − 20 °C)); R when "
+       "`heat` is off",
+       &S::resistance},
   }};
   return table;
 }

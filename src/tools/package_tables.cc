@@ -81,6 +81,18 @@ int main(int argc, char** argv) {
     for (const auto& [key, value] : values) {
       fmt::print("        {}: ({:.17g}, {}),\n", Quote(key), value.first, Quote(value.second));
     }
+    if (preset.thermal) {  // the heat network (SPEC §8), under the attributes' names
+      const mjstepper::ThermalParams& t = *preset.thermal;
+      const std::pair<const char*, std::pair<double, const char*>> heat[] = {
+          {"thermal_resistance_winding", {t.resistance_winding, "K/W"}},
+          {"thermal_resistance_housing", {t.resistance_housing, "K/W"}},
+          {"heat_capacity_winding", {t.capacity_winding, "J/K"}},
+          {"heat_capacity_housing", {t.capacity_housing, "J/K"}},
+      };
+      for (const auto& [key, value] : heat) {
+        fmt::print("        {}: ({:.17g}, {}),\n", Quote(key), value.first, Quote(value.second));
+      }
+    }
     fmt::print("        \"detent\": (({}), \"order, N·m, rad\"),\n", [&] {
       std::string list;
       for (const mjstepper::DetentHarmonic& h : m.detent) {
