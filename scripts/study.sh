@@ -8,7 +8,10 @@
 #   renders/study_ramp.png               both runs' signals against time
 # then the robot-arm joint study (models/arm3.xml: a pick move through the shoulder's resonance,
 # undamped and damped), which writes docs/studies/arm.md, renders/arm/velocity_error.png and
-# renders/arm/arm.mp4; and prints a summary. See renders/README.md.
+# renders/arm/arm.mp4; then the drivers study (models/belt_axis.xml on a catalogue NEMA 17 under
+# Tsui's PI drive, SpreadCycle, StealthChop and an ideal current source), which writes
+# docs/studies/drivers.md, renders/drivers/*.png and renders/drivers/belt_axis.mp4; and prints a
+# summary. See renders/README.md.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bash "$here/scripts/build.sh" mjstepper_cli mjstepper
@@ -22,4 +25,5 @@ SECONDS=0
 ./build/mjstepper plot logs/study_ramp.csv --versus-speed --out renders/study_velocity_error.png \
   --title "Tsui ramp 0-200 r/min: velocity error, undamped vs all three harmonics damped"
 .venv/bin/python src/tools/python/study_arm.py
+.venv/bin/python src/tools/python/study_drivers.py
 echo "study done in ${SECONDS} s (after the build)"

@@ -12,6 +12,7 @@ was built against), after which MJCF models may use `mjstepper.stepper` actuator
 """
 import difflib
 import functools
+import math
 import numbers
 import operator
 import os
@@ -182,6 +183,82 @@ def add_signal_sensors(spec):
         sensor.plugin = probe
         added.append(a.name)
     return added
+
+
+class StepTimes:
+    """A motion controller's STEP/DIR output for a stepper with input="steps": the microstep count
+    at any time, to write into ctrl. The same format as the command line's steps(FILE) (README):
+    one step time in s per line, non-decreasing, in [0, 1e6], optionally followed by its
+    direction, +1 (default) or -1; blank lines and lines starting with # skipped.
+
+        steps = mjstepper.StepTimes.read("moves.txt")      # or StepTimes(times, directions)
+        start = data.ctrl[0]
+        while data.time < steps.last_time:
+            data.ctrl[0] = start + steps.count(data.time + model.opt.timestep)
+            mujoco.mj_step(model, data)
+    """
+
+    MAX_STEPS = 10_000_000  # as the C++ reader (src/core/step_times.h)
+
+    def __init__(self, times, directions=None):
+        times = np.asarray(times, dtype=float).reshape(-1)
+        directions = (np.ones_like(times) if directions is None
+                      else np.asarray(directions, dtype=float).reshape(-1))
+        if times.size == 0:
+            raise ValueError("no step times")
+        if times.size > self.MAX_STEPS:
+            raise ValueError(f"more than {self.MAX_STEPS} steps")
+        if directions.shape != times.shape:
+            raise ValueError(f"{times.size} times but {directions.size} directions")
+        if not np.all(np.isfinite(times)) or times.min() < 0 or times.max() > 1e6:
+            raise ValueError("a step time is a number of seconds in [0, 1e6]")
+        if np.any(np.diff(times) < 0):
+            k = int(np.argmax(np.diff(times) < 0)) + 1
+            raise ValueError(f"step {k + 1} at {times[k]:g} s comes before the step before it "
+                             f"({times[k - 1]:g} s): step times must not decrease")
+        if not np.all(np.isin(directions, (1.0, -1.0))):
+            raise ValueError("a direction is +1 or -1")
+        self.times = times
+        self.counts = np.cumsum(directions)
+
+    @classmethod
+    def read(cls, path):
+        """Reads a step-time file; ValueError naming the file and line of a bad one."""
+        times, directions = [], []
+        with open(path) as f:
+            for number, line in enumerate(f, start=1):
+                text = line.strip()
+                if not text or text.startswith("#"):
+                    continue
+                fields = text.split()
+                try:
+                    if len(fields) > 2:
+                        raise ValueError("expected a time and at most a direction")
+                    time_s = float(fields[0])
+                    direction = float(fields[1]) if len(fields) == 2 else 1.0
+                    if not math.isfinite(time_s) or not 0 <= time_s <= 1e6:
+                        raise ValueError("a step time is a number of seconds in [0, 1e6]")
+                    if direction not in (1.0, -1.0):
+                        raise ValueError("the direction after the time is +1 or -1")
+                    if times and time_s < times[-1]:
+                        raise ValueError(f"step times must not decrease (the step before is at "
+                                         f"{times[-1]:g} s)")
+                except ValueError as e:
+                    raise ValueError(f"{path}:{number}: {text!r}: {e}") from None
+                times.append(time_s)
+                directions.append(direction)
+        if not times:
+            raise ValueError(f"{path}: no step times (one time in s per line)")
+        return cls(times, directions)
+
+    @property
+    def last_time(self):
+        return float(self.times[-1])
+
+    def count(self, t):
+        """The signed count of steps at times <= t (s); t may be an array."""
+        i = np.searchsorted(self.times, t, side="right")
+        return np.where(i > 0, self.counts[np.maximum(i - 1, 0)], 0.0)[()]
 
 
 from ._sweep import resonance_map, sweep  # noqa: E402,F401  (Ray is imported only when run)

@@ -58,6 +58,36 @@ class WheelInAFreshEnvironment(unittest.TestCase):
             spec.compile()
         self.assertIn('hold_current = "-1"', str(ctx.exception))
 
+    def test_step_time_list_drives_a_stepping_stepper(self):
+        """Issue 17: a motion controller's step times (mjstepper.StepTimes, the command line's
+        steps(FILE) format) drive a chopper with input=steps; the drive's commanded angle is the
+        list's count of microsteps; a bad list names its file and line."""
+        spec = mujoco.MjSpec.from_file(os.path.join(SOURCE, "models", "tsui_rigid.xml"))
+        mjstepper.add_signal_sensors(spec)
+        mjstepper.configure(spec, "shaft", drive="chopper", input="steps", bus_voltage=24,
+                            run_current=1.3)
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        path = os.path.join(tempfile.mkdtemp(), "moves.txt")
+        with open(path, "w") as f:
+            f.write("# 400 microsteps forward at 8 kHz, 80 back\n")
+            f.writelines(f"{k * 125e-6}\n" for k in range(1, 401))
+            f.writelines(f"{0.05 + k * 125e-6} -1\n" for k in range(1, 81))
+        steps = mjstepper.StepTimes.read(path)
+        self.assertEqual(steps.count(0.05), 400)
+        while data.time < steps.last_time + 0.005:
+            data.ctrl[0] = steps.count(data.time + model.opt.timestep)
+            mujoco.mj_step(model, data)
+        step = 2 * math.pi / (4 * 50 * 16)  # rad per microstep
+        self.assertAlmostEqual(mjstepper.signals(model, data, "shaft")["theta_cmd"][0],
+                               320 * step, delta=1e-12)
+        with open(path, "a") as f:
+            f.write("0.01\n")
+        with self.assertRaises(ValueError) as ctx:
+            mjstepper.StepTimes.read(path)
+        self.assertIn("moves.txt:482", str(ctx.exception))
+        self.assertIn("must not decrease", str(ctx.exception))
+
     def test_presets_with_units(self):
         tsui = mjstepper.PRESETS["tsui2009"]
         self.assertEqual(tsui["rotor_inertia"], (0.36e-4, "kg·m²"))
