@@ -38,10 +38,9 @@ Stepping Load(const std::string& path, double ctrl, const std::string& configs =
   text << file.rdbuf();
   std::string xml = text.str();
   if (!configs.empty()) xml.insert(xml.find("<config key=\"motor\""), configs);
-  // A chopper or StealthChop drive (issue 17) in place of the PI loop, at the same peak current
-  // (1.9 A).
-  if (configs.find("chopper") != std::string::npos ||
-      configs.find("stealthchop") != std::string::npos) {
+  // Another drive (issue 17's chopper, SpreadCycle, StealthChop) in place of the PI loop, at the
+  // same peak current (1.9 A): the model's own drive key removed, as MJCF keeps the first.
+  if (configs.find(R"(key="drive")") != std::string::npos) {
     const std::string pi = R"(<config key="drive" value="current_microstep"/>)";
     xml.erase(xml.find(pi), pi.size());
   }
@@ -96,6 +95,10 @@ int main(int argc, char** argv) {
   const std::string chopper =
       R"(<config key="drive" value="chopper"/><config key="decay" value="mixed"/>)"
       R"(<config key="run_current" value="1.3435"/>)";
+  // SpreadCycle (TMC2209 timing: TOFF 3, TBL 2, HSTRT 5, HEND 0 at 12 MHz) on the same motor and
+  // load at the same peak.
+  const std::string spreadcycle =
+      R"(<config key="drive" value="spreadcycle"/><config key="run_current" value="1.3435"/>)";
   // StealthChop (averaged voltage PWM, autoscale) on the same motor and load at the same peak.
   const std::string stealthchop =
       R"(<config key="drive" value="stealthchop"/><config key="run_current" value="1.3435"/>)";
@@ -106,15 +109,17 @@ int main(int argc, char** argv) {
                                    R"(<config key="thermal_resistance_housing" value="3.44"/>)"
                                    R"(<config key="heat_capacity_winding" value="30"/>)"
                                    R"(<config key="heat_capacity_housing" value="483"/>)";
-  // "stepper", "stepper1mhz", "chopper", "chopper_heat", "stealthchop", "dcmotor" or
-  // "dcmotor_ripple": that one alone (for callgrind)
+  // "stepper", "stepper1mhz", "chopper", "chopper_heat", "spreadcycle", "stealthchop", "dcmotor"
+  // or "dcmotor_ripple": that one alone (for callgrind)
   const std::string only = argc > 2 ? argv[2] : "";
   if (only == "stepper" || only == "stepper1mhz" || only == "chopper" || only == "chopper_heat" ||
-      only == "stealthchop" || only == "dcmotor" || only == "dcmotor_ripple") {
+      only == "spreadcycle" || only == "stealthchop" || only == "dcmotor" ||
+      only == "dcmotor_ripple") {
     const Stepping s = only == "stepper"        ? Load(dir + "tsui_rigid.xml", 10.472)
                        : only == "stepper1mhz"  ? Load(dir + "tsui_rigid.xml", 10.472, fast)
                        : only == "chopper"      ? Load(dir + "tsui_rigid.xml", 10.472, chopper)
                        : only == "chopper_heat" ? Load(dir + "tsui_rigid.xml", 10.472, chopper_heat)
+                       : only == "spreadcycle"  ? Load(dir + "tsui_rigid.xml", 10.472, spreadcycle)
                        : only == "stealthchop"  ? Load(dir + "tsui_rigid.xml", 10.472, stealthchop)
                        : only == "dcmotor"      ? Load(dir + "tsui_rigid_dcmotor.xml", 3.0)
                                            : rippled(Load(dir + "tsui_rigid_dcmotor.xml", 3.0));

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "chopper_trace.h"
 #include "core/drive.h"
 #include "core/presets.h"
 #include "core/units.h"
@@ -46,28 +47,9 @@ DriveConfig Config(const ConstantOffTime& chopper, double isr_period = 10e-6) {
   return c;
 }
 
-struct Trace {
-  std::vector<double> t, ia, va, ref_a;
-};
-
-// The drive on a rotor turning at ω (rad/s) from θ = 0, commanded at the same speed, stepped by h
-// from t = 0 to t_end; samples recorded from t_record on.
-Trace RunAtSpeed(const Drive& drive, double omega, double h, double t_end, double t_record) {
-  DriveState s = drive.Rest(0.0, 0.0, omega);
-  Trace tr;
-  const long n = std::lround(t_end / h);
-  for (long k = 0; k < n; ++k) {
-    const double t0 = k * h, t1 = (k + 1) * h;
-    EXPECT_EQ(drive.Advance(&s, t0, t1, omega * t1, omega), AdvanceStatus::kOk);
-    if (t1 >= t_record) {
-      tr.t.push_back(t1);
-      tr.ia.push_back(s.current_a);
-      tr.va.push_back(s.voltage_a);
-      tr.ref_a.push_back(s.current_ref_a);
-    }
-  }
-  return tr;
-}
+using testing::RunAtSpeed;
+using testing::Trace;
+using testing::TrackingError;
 
 TEST(Chopper, HeldRotorRippleAndFrequencyMatchTheClosedForm) {
   // ω = 0, slow decay: the off-time decays i from the trip point I to I·e^{−a·t_off} (a = R/L),
@@ -145,13 +127,6 @@ TEST(Chopper, SwitchingIsIndependentOfTheInterruptPeriodAndTheStep) {
   for (double i : currents) EXPECT_NEAR(i, currents[0], 1e-9);
   // And it does chop: not the averaged current.
   EXPECT_GT(std::abs(currents[0] - kPeak), 1e-4);
-}
-
-// RMS of i_a − i_a* over the samples.
-double TrackingError(const Trace& tr) {
-  double sum = 0;
-  for (size_t k = 0; k < tr.t.size(); ++k) sum += std::pow(tr.ia[k] - tr.ref_a[k], 2);
-  return std::sqrt(sum / tr.t.size());
 }
 
 TEST(Chopper, FastDecayFollowsAFallingCurrentThatSlowDecayCannot) {

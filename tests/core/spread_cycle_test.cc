@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "chopper_trace.h"
 #include "core/drive.h"
 #include "core/presets.h"
 #include "core/units.h"
@@ -50,28 +51,9 @@ DriveConfig Config(const Controller& unit, double isr_period = 10e-6) {
   return c;
 }
 
-struct Trace {
-  std::vector<double> t, ia, va, ref_a;
-};
-
-// The drive on a rotor turning at ω (rad/s) from θ = 0, stepped by h to t_end, recorded from
-// t_record on.
-Trace RunAtSpeed(const Drive& drive, double omega, double h, double t_end, double t_record) {
-  DriveState s = drive.Rest(0.0, 0.0, omega);
-  Trace tr;
-  const long n = std::lround(t_end / h);
-  for (long k = 0; k < n; ++k) {
-    EXPECT_EQ(drive.Advance(&s, k * h, (k + 1) * h, omega * (k + 1) * h, omega),
-              AdvanceStatus::kOk);
-    if ((k + 1) * h >= t_record) {
-      tr.t.push_back((k + 1) * h);
-      tr.ia.push_back(s.current_a);
-      tr.va.push_back(s.voltage_a);
-      tr.ref_a.push_back(s.current_ref_a);
-    }
-  }
-  return tr;
-}
+using testing::RunAtSpeed;
+using testing::Trace;
+using testing::TrackingError;
 
 // The held rotor's steady chopper cycle, solved here independently of the drive: at ω = 0 a
 // phase's current under a held voltage v is i(t) = v/R + (i0 − v/R)·e^{−a·t}, a = R/L (S-3), and
@@ -177,12 +159,6 @@ TEST(SpreadCycle, SwitchingIsIndependentOfTheInterruptPeriodAndTheStep) {
   }
   for (double i : currents) EXPECT_NEAR(i, currents[0], 1e-9);
   EXPECT_GT(std::abs(currents[0] - 2.0), 1e-4);  // it chops
-}
-
-double TrackingError(const Trace& tr) {
-  double sum = 0;
-  for (size_t k = 0; k < tr.t.size(); ++k) sum += std::pow(tr.ia[k] - tr.ref_a[k], 2);
-  return std::sqrt(sum / tr.t.size());
 }
 
 TEST(SpreadCycle, FastDecayPhaseFollowsTheTableAtSpeedWhereSlowDecayCannot) {

@@ -124,16 +124,13 @@ struct ConstantOffTime {
 
   /// At each tick: the step count → the table's targets (the comparators' trip points).
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage&, State* s) const {
-    const double count = table.Count(k, in.command.theta);
-    const PhaseVector target = table.Targets(table.Position(k, count, in.tick, &s->counter));
-    return {.bridge = {}, .current_ref = target};
+    return {.bridge = {}, .current_ref = table.TickTargets(k, in, &s->counter)};
   }
 
   /// At rest on the table's entry at θcmd; each phase starts on, its comparator armed at once.
   PhaseVector Rest(const DriveConstants& k, const RestInput& in, State* s) const {
     *s = {};
-    s->counter.count = s->counter.from = table.Count(k, in.theta_cmd);
-    const PhaseVector target = table.Targets(s->counter.count);
+    const PhaseVector target = table.RestTargets(k, in.theta_cmd, &s->counter);
     s->phase[0].target = target.real();
     s->phase[1].target = target.imag();
     return target;

@@ -16,8 +16,8 @@
 
 namespace mjstepper {
 
-inline constexpr AttributeSpec kAttrKp{
-    "kp", "real", "7.5", "V/A", "PI current-loop proportional gain, T(9); ≥ 0."};
+inline constexpr AttributeSpec kAttrKp{"kp", "real", "7.5", "V/A",
+                                       "PI current-loop proportional gain, T(9); ≥ 0."};
 inline constexpr AttributeSpec kAttrKi{
     "ki", "real", "0.01", "V/A per tick",
     "PI integral gain **per interrupt**, T(10); at 20 kHz 0.01 is 200 V/(A·s). ≥ 0."};

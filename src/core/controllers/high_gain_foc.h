@@ -53,10 +53,10 @@ struct HighGainFoc {
   Derivative derivative = Derivative::kAnalytic;
 
   struct State {
-    double e0 = 0;           ///< ∫e1 dt, rad·s, K(22)
-    double previous_a = 0;   ///< iad at the previous tick, A (numeric derivative)
-    double previous_b = 0;   ///< ibd, A
-    double has_previous = 0; ///< 1 once previous_a/b hold a tick's value
+    double e0 = 0;            ///< ∫e1 dt, rad·s, K(22)
+    double previous_a = 0;    ///< iad at the previous tick, A (numeric derivative)
+    double previous_b = 0;    ///< ibd, A
+    double has_previous = 0;  ///< 1 once previous_a/b hold a tick's value
   };
   using Input = Sample;
 

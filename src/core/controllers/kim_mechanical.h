@@ -4,7 +4,8 @@
 //   e2 = ė1 + k1p·e1                                                           K(21)
 //   e0 = ∫0^t e1 dτ                        (here e0[k] = e0[k−1] + T·e1[k])     K(22)
 //   τd = B·ω + τl + J·(θ̈d − k1p·ė1 − k0·e0 − k1·e1 − k2·e2)                    K(24)
-//   iad = −(τd/Km)·sin(Nr·θ),  ibd = (τd/Km)·cos(Nr·θ),  i.e. iad + j·ibd = j·(τd/Km)·e^{jNrθ}   K(27)
+//   iad = −(τd/Km)·sin(Nr·θ),  ibd = (τd/Km)·cos(Nr·θ),  i.e. iad + j·ibd = j·(τd/Km)·e^{jNrθ}
+//   K(27)
 // B, τl and J are the controller's own feed-forward values (they may differ from the plant's).
 // With τ̄ = τd the error obeys ė = A·e, A = [0 1 0; 0 −k1p 1; −k0 −k1 −k2]            K(26), K(31)
 // and a torque error τ̃ reaches e1 through E1/T̃ = (1/J)·s/det(sI − A)                  K(35)
@@ -41,18 +42,18 @@ inline constexpr AttributeSpec kAttrFfLoadTorque{
     "MuJoCo force, see \"Load torque\" in plugin/README.md)."};
 
 struct KimMechanical {
-  double k1p = 40000;         ///< 1/s
-  double k0 = 10;             ///< 1/s³
-  double k1 = 20;             ///< 1/s²
-  double k2 = 100;            ///< 1/s
-  double inertia = 4.8e-5;    ///< J, kg·m²
-  double damping = 1e-3;      ///< B, N·m·s/rad
-  double load_torque = 0.1;   ///< τl, N·m
+  double k1p = 40000;        ///< 1/s
+  double k0 = 10;            ///< 1/s³
+  double k1 = 20;            ///< 1/s²
+  double k2 = 100;           ///< 1/s
+  double inertia = 4.8e-5;   ///< J, kg·m²
+  double damping = 1e-3;     ///< B, N·m·s/rad
+  double load_torque = 0.1;  ///< τl, N·m
 
   /// The shared attributes; `k1p_default` is the controller's own.
   static std::vector<const AttributeSpec*> Attributes() {
-    return {&kAttrK1p, &kAttrK0, &kAttrK1, &kAttrK2, &kAttrFfInertia, &kAttrFfDamping,
-            &kAttrFfLoadTorque};
+    return {&kAttrK1p,       &kAttrK0,        &kAttrK1,          &kAttrK2,
+            &kAttrFfInertia, &kAttrFfDamping, &kAttrFfLoadTorque};
   }
   static KimMechanical FromAttributes(const AttributeSource& a, const MotorParams& motor,
                                       double k1p_default) {

@@ -35,8 +35,9 @@ static_assert(internal::AllUnits<Controller>::value, "every registered controlle
 /// Calls f.template operator()<C>() for each registered controller type C, in registry order.
 template <class F>
 void ForEachControllerType(F&& f) {
-  [&]<class... C>(std::variant<C...>*) { (f.template operator()<C>(), ...); }(
-      static_cast<Controller*>(nullptr));
+  [&]<class... C>(std::variant<C...>*) {
+    (f.template operator()<C>(), ...);
+  }(static_cast<Controller*>(nullptr));
 }
 
 /// The MJCF name of the controller a drive holds (`drive` attribute).

@@ -123,17 +123,13 @@ struct SpreadCycle {
 
   /// At each tick: the step count → the table's targets, scaled by CoolStep.
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage&, State* s) const {
-    const double count = table.Count(k, in.command.theta);
-    const PhaseVector target =
-        in.current_scale * table.Targets(table.Position(k, count, in.tick, &s->counter));
-    return {.bridge = {}, .current_ref = target};
+    return {.bridge = {}, .current_ref = table.TickTargets(k, in, &s->counter)};
   }
 
   /// At rest on the table's entry at θcmd.
   PhaseVector Rest(const DriveConstants& k, const RestInput& in, State* s) const {
     *s = {};
-    s->counter.count = s->counter.from = table.Count(k, in.theta_cmd);
-    const PhaseVector target = table.Targets(s->counter.count);
+    const PhaseVector target = table.RestTargets(k, in.theta_cmd, &s->counter);
     s->phase[0].target = target.real();
     s->phase[1].target = target.imag();
     return target;

@@ -102,6 +102,19 @@ struct MicrostepTable {
     return std::round(position * fine) / fine;
   }
 
+  /// A STEP/DIR unit's tick: the count of θcmd → the (interpolated) position → the phase targets,
+  /// scaled by CoolStep (Sample::current_scale), A.
+  PhaseVector TickTargets(const DriveConstants& k, const Sample& in, Counter* c) const {
+    const double count = Count(k, in.command.theta);
+    return in.current_scale * Targets(Position(k, count, in.tick, c));
+  }
+
+  /// At rest at θcmd (rad): the counter on its count; the phase targets there, A.
+  PhaseVector RestTargets(const DriveConstants& k, double theta_cmd, Counter* c) const {
+    c->count = c->from = Count(k, theta_cmd);
+    return Targets(c->count);
+  }
+
   /// T(ψ) for position p in microsteps: the quarter wave mirrored (sine by default).
   double Entry(double position) const {
     const double quarter_steps = static_cast<double>(microsteps);

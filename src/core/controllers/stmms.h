@@ -42,12 +42,12 @@ struct Stmms {
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
                   State* s) const {
     const KimMechanical::Errors e = mechanical.Track(in);
-    s->e0 += k.isr_period * e.e1;                                        // K(22)
-    const double torque = mechanical.DesiredTorque(in, e, s->e0);       // τd, K(24)
+    s->e0 += k.isr_period * e.e1;                                      // K(22)
+    const double torque = mechanical.DesiredTorque(in, e, s->e0);      // τd, K(24)
     const PhaseVector phasor = in.feedback.ElecPhasor(k.rotor_teeth);  // e^{jx}
     const PhaseVector current_ref =
         KimMechanical::Commutate(torque, k.torque_constant, phasor);  // K(27)
-    const PhaseVector emf(0, k.torque_constant * in.feedback.omega);    // j·Km·ω
+    const PhaseVector emf(0, k.torque_constant * in.feedback.omega);  // j·Km·ω
     const PhaseVector v = k.resistance * current_ref + emf * phasor;  // K(28)
     return {.bridge = stage.Apply(v), .current_ref = current_ref};
   }

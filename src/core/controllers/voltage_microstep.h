@@ -31,15 +31,14 @@ struct VoltageMicrostep {
   static std::vector<const AttributeSpec*> Attributes() { return {&kAttrVoltageAmplitude}; }
   static VoltageMicrostep FromAttributes(const AttributeSource& a, const MotorParams& motor,
                                          const DriveConstants&) {
-    return {.voltage_amplitude = a.Real(kAttrVoltageAmplitude,
-                                        motor.resistance * motor.rated_current,
-                                        AttributeSource::Rule::kPositive)};
+    return {.voltage_amplitude =
+                a.Real(kAttrVoltageAmplitude, motor.resistance * motor.rated_current,
+                       AttributeSource::Rule::kPositive)};
   }
 
-  TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
-                  State*) const {
+  TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage, State*) const {
     const PhaseVector v = voltage_amplitude * UnitPhasor(k.rotor_teeth * in.command.theta);  // K(5)
-    return {.bridge = stage.Apply(v), .current_ref = v / k.resistance};  // K(4)
+    return {.bridge = stage.Apply(v), .current_ref = v / k.resistance};                      // K(4)
   }
 
   /// Phase currents at rest, aligned with the command: Vmax/R·e^{jNrθcmd}.
