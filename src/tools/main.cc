@@ -19,6 +19,7 @@
 #include "core/attributes.h"
 #include "core/controllers/driver_chip.h"
 #include "core/signals.h"
+#include "core/thermal.h"
 #include "core/units.h"
 #include "identify.h"
 #include "output_file.h"
@@ -30,6 +31,43 @@
 
 namespace mjstepper::tools {
 namespace {
+
+// The STEP/DIR table, StallGuard and heat of a drive that has them (issue 17).
+void PrintDriverDetails(const DriveConfig& c) {
+  std::visit(
+      [&](const auto& unit) {
+        if constexpr (requires { unit.table.peak_current; }) {
+          fmt::print(
+              "    STEP/DIR table: {} microsteps per full step ({:.4g} rad each), interpolation "
+              "{}, peak {:.4g} A (√2·run_current after the chip's rounding)\n",
+              unit.table.microsteps, StepAngle(c), unit.table.interpolate ? "on" : "off",
+              unit.table.peak_current);
+        }
+        if constexpr (requires { unit.stallguard.version; }) {
+          if (unit.stallguard.version != 0) {
+            fmt::print(
+                "    StallGuard{}: SG_RESULT 0..{:g} at Km·|ω|·cos δi / {:g} V, once per full "
+                "step; "
+                "no stall flag below {:.3g} rad/s ({:.1f} r/min); CoolStep {}\n",
+                unit.stallguard.version, unit.stallguard.FullScale(),
+                unit.stallguard.full_scale_emf, unit.stallguard.min_speed,
+                RadPerSecToRpm(unit.stallguard.min_speed),
+                unit.stallguard.semin > 0 ? "on" : "off");
+          }
+        }
+      },
+      c.controller);
+  if (c.heat) {
+    const ThermalNetwork network(c.heat->network);
+    const auto tau = network.TimeConstants();  // s
+    fmt::print(
+        "    heat: winding and housing from {:g} °C (ambient {:g} °C), modes' time constants "
+        "{:.1f} and "
+        "{:.1f} min, {:.1f} K per W held; warning above {:g} °C (insulation class)\n",
+        c.heat->initial_temperature, c.heat->ambient_temperature, tau[0] / 60, tau[1] / 60,
+        network.SteadyRise(1.0)[0], c.heat->insulation_limit);
+  }
+}
 
 int Info(const std::string& path) {
   const StepperModel sm = LoadStepperModel(path);
@@ -55,6 +93,7 @@ int Info(const std::string& path) {
         p.rotor_teeth, p.resistance, p.inductance, p.torque_constant, p.detent.size(),
         drive.RestCurrentMagnitude(), StiffnessFormula(s.config.controller), stiffness, inertia,
         fn);
+    PrintDriverDetails(s.config);
     if (!(stiffness > 0)) {
       fmt::print("    no holding stiffness: something else must hold or turn the shaft\n");
       continue;

@@ -218,6 +218,30 @@ TEST(Runner, InfoGivesNaturalFrequencyAndResonantSpeeds) {
   EXPECT_THAT(r.output, ::testing::Not(HasSubstr("warning")));
 }
 
+// Issue 17: info gives a driver chip's table after its current rounding (TMC2209, 0.110 Ω: 0.8 A
+// RMS → CS 25 at 0.180 V = 0.7955 A, peak 1.125 A), its StallGuard and the motor's heat network.
+TEST(Runner, InfoGivesTheDriverChipsTableStallGuardAndHeat) {
+  std::string xml = ModelText();
+  const std::string pi = R"(<config key="drive" value="current_microstep"/>)";
+  const std::string velocity = R"(<config key="input" value="velocity"/>)";
+  xml.erase(xml.find(velocity), velocity.size());
+  xml.replace(xml.find(pi), pi.size(),
+              R"(<config key="driver" value="tmc2209"/><config key="drive" value="stealthchop"/>)"
+              R"(<config key="input" value="steps"/><config key="run_current" value="0.8"/>)");
+  const std::string tsui = R"(<config key="motor" value="tsui2009"/>)";
+  xml.replace(xml.find(tsui), tsui.size(), R"(<config key="motor" value="qsh4218_51"/>)");
+  const auto path = TempDir() / "tmc2209.xml";
+  std::ofstream(path) << xml;
+  const Result r = RunCli("info " + path.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output,
+              AllOf(HasSubstr("drive stealthchop, input steps"),
+                    HasSubstr("16 microsteps per full step (0.001963 rad each), interpolation on, "
+                              "peak 1.125 A"),
+                    HasSubstr("StallGuard4: SG_RESULT 0..510"), HasSubstr("(10.0 r/min)"),
+                    HasSubstr("heat: winding and housing from 25 °C")));
+}
+
 // A timestep too coarse for a stepper's holding resonance (ωn·h > 0.2 with the inertia it moves):
 // info says so and names the largest step; the plugin warns once at load (for the rotor alone,
 // through MuJoCo's warning mechanism); run refuses to start unless given --allow-coarse.

@@ -44,6 +44,7 @@ const std::vector<DriverChip>& DriverChips() {
        .max_current = 2.0,
        .sense_resistor = 0.110,
        .scaling = CurrentScaling::kCsVsense,
+       .microsteps = 16,
        .interpolate = true,
        .stallguard_spread = 0,
        .stallguard_stealth = 4,
@@ -68,6 +69,7 @@ const std::vector<DriverChip>& DriverChips() {
        .max_current = 1.2,
        .sense_resistor = 0.110,
        .scaling = CurrentScaling::kCsVsense,
+       .microsteps = 16,
        .interpolate = true,
        .stallguard_spread = 2,
        .stallguard_stealth = 0,
@@ -93,6 +95,7 @@ const std::vector<DriverChip>& DriverChips() {
        .max_current = 3.0,
        .sense_resistor = 0.075,
        .scaling = CurrentScaling::kGlobalScale,
+       .microsteps = 16,
        .interpolate = true,
        .stallguard_spread = 2,
        .stallguard_stealth = 0,
@@ -116,6 +119,7 @@ const std::vector<DriverChip>& DriverChips() {
        .max_current = 2.0 / std::sqrt(2.0),
        .sense_resistor = 0.068,
        .scaling = CurrentScaling::kExact,
+       .microsteps = 16,
        .interpolate = false,
        .stallguard_spread = 0,
        .stallguard_stealth = 0,
@@ -139,6 +143,7 @@ const std::vector<DriverChip>& DriverChips() {
        .max_current = 2.5 / std::sqrt(2.0),
        .sense_resistor = 0.100,
        .scaling = CurrentScaling::kExact,
+       .microsteps = 16,
        .interpolate = false,
        .stallguard_spread = 0,
        .stallguard_stealth = 0,
@@ -195,8 +200,9 @@ DriverChip::Regulation DriverChip::Regulate(double run_current, double r_sense) 
 
 std::string DriverTableMarkdown() {
   std::string out =
-      "| `driver` | drive | bus (V) | current (A RMS) | R_S (Ω) | chopper defaults | source |\n"
-      "|---|---|---|---|---|---|---|\n";
+      "| `driver` | drive | bus (V) | current (A RMS) | R_S (Ω) | microsteps | chopper defaults | "
+      "source |\n"
+      "|---|---|---|---|---|---|---|---|\n";
   for (const DriverChip& c : DriverChips()) {
     const std::string chopper =
         c.clock_frequency > 0 ? fmt::format("f_CLK {:g} MHz, TOFF {}, TBL {}, HSTRT {}, HEND {}",
@@ -206,8 +212,9 @@ std::string DriverTableMarkdown() {
                           c.blank_time * 1e6, c.fast_fraction * 100)
             : fmt::format("t_off {:g} µs, blank {:g} µs, fast {:g} %", c.off_time * 1e6,
                           c.blank_time * 1e6, c.fast_fraction * 100);
-    out += fmt::format("| `{}` | `{}` | ≤ {:g} | ≤ {:.3g} | {:g} | {} | {} |\n", c.name, c.drive,
-                       c.max_bus_voltage, c.max_current, c.sense_resistor, chopper, c.source);
+    out += fmt::format("| `{}` | `{}` | ≤ {:g} | ≤ {:.3g} | {:g} | {}{} | {} | {} |\n", c.name,
+                       c.drive, c.max_bus_voltage, c.max_current, c.sense_resistor, c.microsteps,
+                       c.interpolate ? ", MicroPlyer to 256" : "", chopper, c.source);
   }
   return out;
 }

@@ -52,6 +52,7 @@ struct DriverChip {
   double max_current;      ///< A RMS the chip (with its module's cooling) is rated for
   double sense_resistor;   ///< Ω, R_S of the common module
   CurrentScaling scaling;
+  int microsteps;          ///< the usual setting (MS pins or MRES) on printer boards
   bool interpolate;        ///< MicroPlyer (TMC) by default
   int stallguard_spread;   ///< StallGuard version in SpreadCycle (2, or 0: none)
   int stallguard_stealth;  ///< StallGuard version in StealthChop (4, or 0: none)

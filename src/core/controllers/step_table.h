@@ -27,7 +27,9 @@
 namespace mjstepper {
 
 inline constexpr AttributeSpec kAttrMicrosteps{
-    "microsteps", "integer", "0 (`current_microstep`, `ideal_current`); 16 (chopper drives)",
+    "microsteps", "integer",
+    "0 (`current_microstep`, `ideal_current`); 16 (chopper drives; every `driver` chip: the MS "
+    "pins' 1/16 of printer boards, Klipper's usual `microsteps: 16`)",
     "per full step",
     "The resolution of the commanded current vector, as a real driver's setting (MRES): 1 full "
     "step, 2 half step, ... 256; ψ is rounded to multiples of (π/2)/microsteps. With `input` = "
@@ -169,7 +171,7 @@ struct MicrostepTable {
       interpolate_by_default = chip->interpolate;
     }
     t.peak_current = std::sqrt(2.0) * run_current;
-    t.microsteps = a.Integer(kAttrMicrosteps, 16, 1, 256);
+    t.microsteps = a.Integer(kAttrMicrosteps, chip != nullptr ? chip->microsteps : 16, 1, 256);
     t.interpolate =
         a.Choice(kAttrInterpolate, interpolate_by_default ? "on" : "off", {"on", "off"}) == "on";
     if (auto q = a.Reals(kAttrCurrentTable, 0.0, 1.0, t.microsteps + 1, t.microsteps + 1)) {
