@@ -3,8 +3,10 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <vector>
 
@@ -59,13 +61,67 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole) {
                                               : kMaxProfileTime;
   const char* bound_unit = q.dim == Dim::kSpeed ? "rad/s" : q.dim == Dim::kAngle ? "rad" : "s";
   if (!(std::abs(q.value) <= bound)) {
-    throw std::invalid_argument(fmt::format("profile \"{}\": \"{}\" is beyond ±{:g} {}", whole,
-                                            t, bound, bound_unit));
+    throw std::invalid_argument(
+        fmt::format("profile \"{}\": \"{}\" is beyond ±{:g} {}", whole, t, bound, bound_unit));
   }
   return q;
 }
 
 }  // namespace
+
+// shaped(PROFILE, TYPE FREQUENCYHz [DAMPING]): the shaper after the last comma (it has none).
+CommandProfile CommandProfile::ParseShaped(const std::string& whole, const std::string& inner) {
+  const size_t comma = inner.rfind(',');
+  auto bad = [&](const std::string& why) {
+    return std::invalid_argument(fmt::format(
+        "profile \"{}\": {}; expected shaped(PROFILE, TYPE FREQUENCYHz [DAMPING]), e.g. "
+        "shaped(trapezoid(200rpm, 0.2s, 0.5s, 0.2s), mzv 40Hz)",
+        whole, why));
+  };
+  if (comma == std::string::npos || inner.find(')', comma) != std::string::npos) {
+    throw bad("no shaper after the profile");
+  }
+  std::istringstream fields(inner.substr(comma + 1));
+  std::string type_text, frequency_text, damping_text, extra;
+  fields >> type_text >> frequency_text >> damping_text >> extra;
+  if (type_text.empty() || frequency_text.empty() || !extra.empty()) {
+    throw bad("the shaper is a type, a frequency and at most a damping ratio");
+  }
+  ShaperType type;
+  try {
+    type = ParseShaperType(type_text);
+  } catch (const std::invalid_argument& e) {
+    throw bad(e.what());
+  }
+  double frequency = 0;  // Hz
+  const auto [ptr, ec] = std::from_chars(frequency_text.data(),
+                                         frequency_text.data() + frequency_text.size(), frequency);
+  std::string unit(ptr, static_cast<const char*>(frequency_text.data() + frequency_text.size()));
+  for (char& c : unit) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ec != std::errc() || unit != "hz") {
+    throw bad(fmt::format("\"{}\" is not a frequency in Hz", frequency_text));
+  }
+  double damping = kDefaultShaperDamping;
+  if (!damping_text.empty()) {
+    const char* end = damping_text.data() + damping_text.size();
+    const auto [dptr, dec] = std::from_chars(damping_text.data(), end, damping);
+    if (dec != std::errc() || dptr != end) {
+      throw bad(fmt::format("\"{}\" is not a damping ratio", damping_text));
+    }
+  }
+  CommandProfile p = Parse(inner.substr(0, comma));
+  InputShaper shaper;
+  try {
+    shaper = MakeShaper(type, frequency, damping);
+  } catch (const std::invalid_argument& e) {
+    throw bad(e.what());
+  }
+  if (shaper.duration() > kMaxProfileTime) throw bad("the shaper is longer than 1e6 s");
+  p.shaper_ = std::make_shared<const InputShaper>(p.shaper_ ? Convolve(*p.shaper_, shaper)
+                                                            : std::move(shaper));
+  p.text_ = whole;
+  return p;
+}
 
 CommandProfile CommandProfile::Parse(std::string_view text) {
   const std::string whole(text);
@@ -73,12 +129,13 @@ CommandProfile CommandProfile::Parse(std::string_view text) {
   const size_t close = whole.rfind(')');
   if (open == std::string::npos || close == std::string::npos || close < open ||
       !Trim(whole.substr(close + 1)).empty()) {
-    throw std::invalid_argument(fmt::format(
-        "profile \"{}\": expected constant(…), ramp(…, …, …), trapezoid(…, …, …, …) or "
-        "steps(FILE)",
-        whole));
+    throw std::invalid_argument(
+        fmt::format("profile \"{}\": expected constant(…), ramp(…, …, …), trapezoid(…, …, …, …), "
+                    "steps(FILE) or shaped(PROFILE, SHAPER)",
+                    whole));
   }
   const std::string name = Trim(whole.substr(0, open));
+  if (name == "shaped") return ParseShaped(whole, whole.substr(open + 1, close - open - 1));
   if (name == "steps") {  // a file of step times, not quantities
     CommandProfile p;
     p.text_ = whole;
@@ -131,12 +188,43 @@ CommandProfile CommandProfile::Parse(std::string_view text) {
     p.t2_ = args[2].value;
     p.t3_ = args[3].value;
   } else {
-    throw bad("constant(…), ramp(…, …, …), trapezoid(…, …, …, …) or steps(FILE)");
+    throw bad(
+        "constant(…), ramp(…, …, …), trapezoid(…, …, …, …), steps(FILE) or "
+        "shaped(PROFILE, SHAPER)");
   }
   return p;
 }
 
 double CommandProfile::Speed(double t, double step_angle) const {
+  if (!shaper_) return RawSpeed(t, step_angle);
+  double speed = 0;  // rad/s, Σ A_i·speed(t − T_i)
+  for (size_t i = 0; i < shaper_->times.size(); ++i) {
+    speed += shaper_->amplitudes[i] * RawSpeed(t - shaper_->times[i], step_angle);
+  }
+  return speed;
+}
+
+double CommandProfile::Angle(double t, double step_angle) const {
+  if (kind_ == Kind::kStepList) return StepCount(t) * step_angle;
+  if (!shaper_) return RawAngle(t, step_angle);
+  double angle = 0, at_zero = 0;  // rad, Σ A_i·angle(t − T_i) and its value at t = 0
+  for (size_t i = 0; i < shaper_->times.size(); ++i) {
+    angle += shaper_->amplitudes[i] * RawAngle(t - shaper_->times[i], step_angle);
+    if (!absolute_angle()) at_zero += shaper_->amplitudes[i] * RawAngle(-shaper_->times[i], 0);
+  }
+  return angle - at_zero;
+}
+
+double CommandProfile::StepCount(double t) const {
+  if (!shaper_) return steps_->Count(t);
+  double count = 0;  // Σ A_i·count(t − T_i); counts before t = 0 are 0
+  for (size_t i = 0; i < shaper_->times.size(); ++i) {
+    count += shaper_->amplitudes[i] * steps_->Count(t - shaper_->times[i]);
+  }
+  return std::round(count);
+}
+
+double CommandProfile::RawSpeed(double t, double step_angle) const {
   switch (kind_) {
     case Kind::kStepList:
       return steps_->Rate(t) * step_angle;
@@ -159,7 +247,7 @@ double CommandProfile::Speed(double t, double step_angle) const {
   return 0.0;
 }
 
-double CommandProfile::Angle(double t, double step_angle) const {
+double CommandProfile::RawAngle(double t, double step_angle) const {
   switch (kind_) {
     case Kind::kStepList:
       return steps_->Count(t) * step_angle;
@@ -193,7 +281,7 @@ double CommandProfile::ControlForStep(double t, double h, InputMode input, doubl
   if (input == InputMode::kVelocity) return (Angle(t + h) - Angle(t)) / h;
   if (kind_ == Kind::kStepList) {  // the count of the start angle, plus the list's count
     const double start = step_angle > 0 ? std::round(theta_start / step_angle) : 0.0;
-    return input == InputMode::kSteps ? start + steps_->Count(t + h)
+    return input == InputMode::kSteps ? start + StepCount(t + h)
                                       : theta_start + Angle(t + 0.5 * h, step_angle);
   }
   if (input == InputMode::kSteps) {

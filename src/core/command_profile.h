@@ -6,6 +6,14 @@
 //   trapezoid(200rpm, 0.2s, 0.5s, 0.2s)  0 → peak in Ta, cruise Tc, → 0 in Td, then rest
 //   steps(moves.txt)                 STEP/DIR pulses from a step-time list (step_times.h), for
 //                                    drives with input = steps: the count at t
+//   shaped(PROFILE, mzv 40Hz)        PROFILE through an input shaper (shaper.h): TYPE (zv, mzv,
+//   shaped(PROFILE, ei 40Hz 0.15)    zvd, ei, 2hump_ei, 3hump_ei), its frequency in Hz and
+//                                    optionally its damping ratio (default 0.1); nested shaped()
+//                                    puts two shapers in series (two modes)
+// A shaped profile is the convolution Σ A_i·P(t − T_i) of its angle, its speed and a step list's
+// count (rounded to whole steps); for profiles relative to t = 0 (speeds, step lists) less its
+// value at t = 0, so the angle stays relative to t = 0 (nothing to take away for those starting at
+// rest; a constant speed is left as it is, which is what shaping it does, bar the delay).
 #ifndef MJSTEPPER_CORE_COMMAND_PROFILE_H_
 #define MJSTEPPER_CORE_COMMAND_PROFILE_H_
 
@@ -14,6 +22,7 @@
 #include <string_view>
 
 #include "core/drive.h"
+#include "core/shaper.h"
 #include "core/step_times.h"
 
 namespace mjstepper {
@@ -37,8 +46,10 @@ class CommandProfile {
   /// Commanded angle at t, rad: absolute for angle profiles, relative to t = 0 for speed profiles
   /// and step lists (count·step_angle).
   double Angle(double t, double step_angle = 0) const;
-  /// True for steps(FILE): a STEP/DIR stream, only for drives with input = steps.
+  /// True for steps(FILE) (shaped or not): a STEP/DIR stream, only for drives with input = steps.
   bool step_list() const { return kind_ == Kind::kStepList; }
+  /// The input shaper of shaped(…), or nullptr.
+  const InputShaper* shaper() const { return shaper_.get(); }
   /// True for angle profiles (constant(…rad), ramp(…rad, …rad, T)).
   bool absolute_angle() const { return kind_ == Kind::kAngleHold || kind_ == Kind::kAngleRamp; }
 
@@ -54,11 +65,19 @@ class CommandProfile {
 
  private:
   enum class Kind { kConstantSpeed, kAngleHold, kSpeedRamp, kAngleRamp, kTrapezoid, kStepList };
+  static CommandProfile ParseShaped(const std::string& whole, const std::string& inner);
+  // The profile before shaping.
+  double RawSpeed(double t, double step_angle) const;
+  double RawAngle(double t, double step_angle) const;
+  // A step list's microstep count at t, shaped: round(Σ A_i·count(t − T_i)).
+  double StepCount(double t) const;
+
   Kind kind_ = Kind::kConstantSpeed;
   double a_ = 0, b_ = 0;             // speeds (rad/s) or angles (rad)
   double t1_ = 0, t2_ = 0, t3_ = 0;  // s
   std::string text_;
-  std::shared_ptr<const StepTimes> steps_;  // kStepList
+  std::shared_ptr<const StepTimes> steps_;     // kStepList
+  std::shared_ptr<const InputShaper> shaper_;  // shaped(…)
 };
 
 }  // namespace mjstepper
