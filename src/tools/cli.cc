@@ -142,6 +142,40 @@ CommandLine::CommandLine() : app_("mjstepper: stepper motors and their drives on
       ->default_val(std::vector<int>{4, 2, 1})
       ->check(InRange("orders"));
 
+  resonance_ = app_.add_subcommand(
+      "resonance-test",
+      "Klipper's TEST_RESONANCES on a simulated printer: the toolhead shaken along one axis "
+      "through its steppers, a virtual ADXL345 log in Klipper's raw format, the PSD and the input "
+      "shapers fitted to it");
+  resonance_->add_option("model", c.resonance.model, "MJCF printer (see models/README.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  resonance_->add_option("--axis", axis_, "x or y")->required()->check(CLI::IsMember({"x", "y"}));
+  resonance_
+      ->add_option("--out", c.out,
+                   "output prefix: PREFIX_raw.csv (Klipper's raw accelerometer format), "
+                   "PREFIX_psd.csv, PREFIX.png")
+      ->required();
+  resonance_->add_option("--min-freq", c.resonance.test.min_freq, "Hz (Klipper's default 5)")
+      ->check(InRange("min-freq"));
+  resonance_->add_option("--max-freq", c.resonance.test.max_freq, "Hz (Klipper's 133.33)")
+      ->check(InRange("max-freq"));
+  resonance_->add_option("--accel-per-hz", accel_per_hz_, "mm/s² per Hz (Klipper's 75)")
+      ->check(InRange("accel-per-hz"));
+  resonance_->add_option("--hz-per-sec", c.resonance.test.hz_per_sec, "Hz/s (Klipper's 1)")
+      ->check(InRange("hz-per-sec"));
+  resonance_
+      ->add_option("--accelerometer", c.resonance.accelerometer,
+                   "the toolhead's accelerometer sensor")
+      ->default_val("toolhead_accel");
+  resonance_
+      ->add_option("--accel-rate", c.resonance.adxl.rate,
+                   "Hz, the ADXL345's output data rate (3200)")
+      ->check(InRange("accel-rate"));
+  resonance_->add_option("--seed", c.resonance.adxl.seed, "the accelerometer noise's seed");
+  resonance_->add_option("--set", sets_, kSetHelp);
+  resonance_->add_flag("--quiet", quiet_, "no progress line");
+
   plot_ = app_.add_subcommand("plot", "PNG plot of run logs or sweep CSVs");
   plot_->add_option("csv", c.plot_csvs, "CSV written by run, sweep or pullout")
       ->required()
@@ -270,6 +304,24 @@ void CommandLine::Check() {
     c.kind = CommandKind::kIdentify;
     c.identify.speeds = ParseSpeedList(c.speeds_text);
     c.identify.overrides = overrides;
+    return;
+  }
+  if (*resonance_) {
+    c.kind = CommandKind::kResonance;
+    c.resonance.axis = axis_.at(0);
+    c.resonance.test.accel_per_hz = accel_per_hz_ / 1000;  // m/s² per Hz
+    c.resonance.overrides = overrides;
+    c.resonance.progress = !quiet_;
+    c.resonance.out = c.out;
+    if (!(c.resonance.test.max_freq > c.resonance.test.min_freq)) {
+      throw std::invalid_argument(fmt::format("--max-freq {:g}: must be above --min-freq {:g}",
+                                              c.resonance.test.max_freq,
+                                              c.resonance.test.min_freq));
+    }
+    RequireInRange("--max-freq, --min-freq and --hz-per-sec", Range("test-duration"),
+                   c.resonance.test.Duration(),
+                   fmt::format("give {:g} s of test", c.resonance.test.Duration()));
+    c.outputs = {c.out + "_raw.csv", c.out + "_psd.csv", c.out + ".png"};
     return;
   }
   if (*plot_) {

@@ -11,12 +11,23 @@
 #include "identify.h"
 #include "options.h"
 #include "output_file.h"
+#include "resonance.h"
 #include "runner.h"
 #include "sweep.h"
 
 namespace mjstepper::tools {
 
-enum class CommandKind { kRun, kSweep, kMap, kPullOut, kIdentify, kPlot, kInfo, kTables };
+enum class CommandKind {
+  kRun,
+  kSweep,
+  kMap,
+  kPullOut,
+  kIdentify,
+  kResonance,
+  kPlot,
+  kInfo,
+  kTables
+};
 
 /// A parsed, checked command.
 struct Command {
@@ -27,6 +38,7 @@ struct Command {
   MapOptions map;
   PullOutOptions pullout;
   IdentifyOptions identify;
+  ResonanceOptions resonance;
   std::string speeds_text;  ///< --speeds as given (sweep, map, pullout, identify)
   std::string out;          ///< output prefix (sweep, map, pullout) or PNG (plot)
   std::vector<std::string> plot_csvs, plot_labels;
@@ -61,10 +73,11 @@ class CommandLine {
 
   CLI::App app_;
   Command c_;
-  CLI::App *run_, *sweep_, *map_, *pullout_, *identify_, *plot_, *info_, *tables_;
+  CLI::App *run_, *sweep_, *map_, *pullout_, *identify_, *resonance_, *plot_, *info_, *tables_;
   // Raw texts parsed by Check.
   std::vector<std::string> ctrl_, sets_, masses_, loads_;
-  std::string size_ = "1280x720", vary_;
+  std::string size_ = "1280x720", vary_, axis_;
+  double accel_per_hz_ = 75;  // mm/s² per Hz, as Klipper states it
   bool quiet_ = false, no_overlay_ = false;
 };
 

@@ -227,6 +227,35 @@ int main(int argc, char** argv) {
                    id.static_friction);
         return 0;
       }
+      case CommandKind::kResonance: {
+        const auto start = std::chrono::steady_clock::now();
+        const ResonanceResult r = RunResonanceTest(c.resonance, std::cerr);
+        Plot("resonance", {c.out + "_psd.csv"}, {}, c.out + ".png",
+             fmt::format("{}: resonance test, {} axis", c.resonance.model, c.resonance.axis));
+        fmt::print(
+            "{}: {} axis, {:g}-{:g} Hz at {:g} Hz/s, {} accelerometer samples in {:.1f} s\n"
+            "  the largest response at {:.1f} Hz\n",
+            c.resonance.model, c.resonance.axis, c.resonance.test.min_freq,
+            c.resonance.test.max_freq, c.resonance.test.hz_per_sec, r.samples,
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+            r.peak_frequency);
+        for (const mjstepper::ShaperFit& f : r.fits) {
+          fmt::print(
+              "  {:9} {:6.1f} Hz: remaining vibration {:5.1f} %, smoothing {:.3f} mm at 5000 "
+              "mm/s², max acceleration {:.0f} mm/s²\n",
+              f.shaper.name, f.frequency, 100 * f.vibration, f.smoothing * 1000,
+              f.max_accel * 1000);
+        }
+        if (r.recommended >= 0) {
+          const mjstepper::ShaperFit& best = r.fits[r.recommended];
+          fmt::print(
+              "  recommended: {} at {:.1f} Hz (shaper_type_{} = {}, shaper_freq_{} = {:.1f})\n",
+              best.shaper.name, best.frequency, c.resonance.axis, best.shaper.name,
+              c.resonance.axis, best.frequency);
+        }
+        fmt::print("  wrote {0}_raw.csv\n  wrote {0}_psd.csv\n  wrote {0}.png\n", c.out);
+        return 0;
+      }
       case CommandKind::kMap: {
         const auto start = std::chrono::steady_clock::now();
         const std::vector<MapPoint> points = Map(c.map, std::cerr);

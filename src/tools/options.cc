@@ -35,6 +35,12 @@ constexpr OptionRange kRanges[] = {
     {"rate", 1e-3, 1e4, "N·m/s", "how fast pullout's load torque rises"},
     {"max-torque", 1e-6, 1e4, "N·m", "pullout's highest load torque; max-torque / rate <= 1000 s"},
     {"orders", 1, 64, "", "detent harmonic orders identify fits, each once"},
+    {"min-freq", 1, 1000, "Hz", "a resonance test's lowest frequency"},
+    {"max-freq", 1, 1000, "Hz", "a resonance test's highest frequency"},
+    {"accel-per-hz", 0.1, 10000, "mm/s² per Hz", "a resonance test's acceleration per Hz"},
+    {"hz-per-sec", 0.01, 100, "Hz/s", "how fast a resonance test's frequency rises"},
+    {"test-duration", 0.01, 3600, "s", "(max-freq − min-freq)/hz-per-sec: a resonance test"},
+    {"accel-rate", 100, 3200, "Hz", "the ADXL345's output data rate (its range)"},
 };
 
 }  // namespace

@@ -8,6 +8,8 @@
                                                        commanded speed
   mjstepper_plot.py sweep A.csv [B.csv ...] --labels "no damping" "all damped" --out SWEEP.png
                                                        sweeps: velocity-error ripple against speed
+  mjstepper_plot.py resonance PREFIX_psd.csv --out PREFIX.png
+                                                       a resonance test's PSDs and shapers
 
 The PNG is written to OUT.tmp.png and renamed, so it is never half-written.
 """
@@ -174,6 +176,30 @@ def plot_map(path, out, title=None):
     finish(fig, ax, "commanded speed (r/min)", parameter, title or os.path.basename(path), out)
 
 
+def plot_resonance(path, out, title=None):
+    """A resonance test's frequency response (PREFIX_psd.csv of `mjstepper resonance-test`): the
+    PSD of each axis and their sum against frequency, and on a second axis each fitted shaper's
+    remaining vibration V(f) (the largest over the test damping ratios), as users know the plot."""
+    header, c = read_csv(path)
+    f = c["freq[Hz]"]
+    fig, ax = plt.subplots(figsize=(10, 6))
+    for name, style in (("psd_x", "-"), ("psd_y", "-"), ("psd_z", "-"), ("psd_xyz", "--")):
+        key = next(h for h in header if h.startswith(name + "["))
+        ax.plot(f, c[key], style, lw=1, label=name.replace("psd_", "").upper())
+    ax.set_ylim(bottom=0)
+    ax.ticklabel_format(axis="y", style="scientific", scilimits=(0, 0))
+    ax.set_ylabel("power spectral density ((mm/s²)²/Hz)")
+    ax.legend(loc="upper left", fontsize=8)
+    twin = ax.twinx()
+    for key in [h for h in header if h.startswith("shaper ")]:
+        twin.plot(f, c[key], ":", lw=1.2, label=key[len("shaper "):])
+    twin.set_ylim(0, 1)
+    twin.set_ylabel("shaper vibration reduction (remaining fraction)")
+    twin.legend(loc="upper right", fontsize=7)
+    finish(fig, ax, "frequency (Hz)", "power spectral density ((mm/s²)²/Hz)",
+           title or os.path.basename(path), out)
+
+
 def main(argv):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="kind", required=True)
@@ -196,8 +222,14 @@ def main(argv):
     pullout.add_argument("csv")
     pullout.add_argument("--out", required=True)
     pullout.add_argument("--title")
+    resonance = sub.add_parser("resonance")
+    resonance.add_argument("csv")
+    resonance.add_argument("--out", required=True)
+    resonance.add_argument("--title")
     args = parser.parse_args(argv)
-    if args.kind == "log" and args.versus == "speed":
+    if args.kind == "resonance":
+        plot_resonance(args.csv, args.out, args.title)
+    elif args.kind == "log" and args.versus == "speed":
         plot_versus_speed(args.csv, args.out, args.title)
     elif args.kind == "log":
         plot_log(args.csv, args.out, args.title)

@@ -1,0 +1,218 @@
+#include "resonance.h"
+
+#include <fmt/format.h>
+#include <fmt/ostream.h>
+#include <mujoco/mujoco.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <ostream>
+#include <stdexcept>
+
+#include "csv_writer.h"
+#include "stepper_model.h"
+
+namespace mjstepper::tools {
+namespace {
+
+constexpr double kMm = 1000;  // mm per m: Klipper's files are in mm/s²
+
+// Each stepper's rotor angle per metre of toolhead motion along X, Y, Z (rad/m), from the model's
+// <custom><numeric name="mjstepper:kinematics:NAME" data="kx ky kz"/>.
+std::vector<std::array<double, 3>> Kinematics(const mjModel* m,
+                                              const std::vector<StepperActuator>& steppers) {
+  std::vector<std::array<double, 3>> out;
+  for (const StepperActuator& s : steppers) {
+    const std::string name = "mjstepper:kinematics:" + s.name;
+    const int id = mj_name2id(m, mjOBJ_NUMERIC, name.c_str());
+    if (id < 0 || m->numeric_size[id] != 3) {
+      throw std::invalid_argument(fmt::format(
+          "stepper '{}' has no <custom><numeric name=\"{}\" data=\"kx ky kz\"/>: the resonance "
+          "test needs each stepper's rotor angle per metre of toolhead motion along X, Y, Z "
+          "(rad/m; 1/r for a belt on a pulley of radius r)",
+          s.name, name));
+    }
+    const mjtNum* k = m->numeric_data + m->numeric_adr[id];
+    out.push_back({k[0], k[1], k[2]});
+  }
+  return out;
+}
+
+// The accelerometer sensor `name`: its sensordata address.
+int AccelerometerAddress(const mjModel* m, const std::string& name) {
+  const int id = mj_name2id(m, mjOBJ_SENSOR, name.c_str());
+  if (id < 0 || m->sensor_type[id] != mjSENS_ACCELEROMETER) {
+    throw std::invalid_argument(fmt::format(
+        "--accelerometer {}: the model has no accelerometer sensor of that name (add <sensor>"
+        "<accelerometer name=\"{}\" site=\"...\"/></sensor> on the toolhead, its site's axes the "
+        "printer's X, Y, Z)",
+        name, name));
+  }
+  return m->sensor_adr[id];
+}
+
+// The PSDs (Welch, 0.5 s Hann segments, SPEC §9) of the three axes in Klipper's units, the shapers
+// fitted to the tested axis' and PREFIX_psd.csv.
+void WriteResponse(const ResonanceOptions& o, const std::vector<AccelSample>& samples,
+                   ResonanceResult* r) {
+  const double rate = o.adxl.rate;  // Hz
+  const auto segment = static_cast<std::size_t>(std::lround(0.5 * rate));
+  if (samples.size() < segment) {
+    throw std::invalid_argument(fmt::format(
+        "the test gave {} accelerometer samples, fewer than one 0.5 s segment ({}): lengthen it "
+        "(--min-freq, --max-freq, --hz-per-sec)",
+        samples.size(), segment));
+  }
+  std::array<Spectrum, 3> spectra;
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> values(samples.size());
+    for (size_t i = 0; i < samples.size(); ++i) values[i] = samples[i].accel[a] * kMm;
+    spectra[a] = Welch(values, rate, segment);
+  }
+  const int axis = o.axis == 'x' ? 0 : 1;
+  std::vector<double> band_f, band_psd;
+  std::vector<std::array<double, 4>> rows;  // x, y, z, xyz
+  for (size_t k = 0; k < spectra[0].frequency.size(); ++k) {
+    const double f = spectra[0].frequency[k];
+    if (f < o.test.min_freq || f > o.test.max_freq) continue;
+    const double x = spectra[0].psd[k], y = spectra[1].psd[k], z = spectra[2].psd[k];
+    band_f.push_back(f);
+    band_psd.push_back(spectra[axis].psd[k]);
+    rows.push_back({x, y, z, x + y + z});
+  }
+  r->frequency = band_f;
+  r->psd = band_psd;
+  // The largest bin, refined by the parabola through it and its neighbours: the bins are 2 Hz
+  // apart (0.5 s segments), several percent of a printer's 30-120 Hz resonance.
+  const size_t top = std::max_element(band_psd.begin(), band_psd.end()) - band_psd.begin();
+  r->peak_frequency = band_f[top];
+  if (top > 0 && top + 1 < band_psd.size()) {
+    const double below = band_psd[top - 1], at = band_psd[top], above = band_psd[top + 1];
+    const double curvature = below - 2 * at + above;
+    if (curvature < 0) {
+      r->peak_frequency += 0.5 * (below - above) / curvature * (band_f[top + 1] - band_f[top]);
+    }
+  }
+  FitOptions fit;
+  fit.min_frequency = o.test.min_freq;
+  fit.max_frequency = o.test.max_freq;
+  r->fits = FitShapers(band_f, band_psd, fit);
+  const ShaperFit best = Recommend(r->fits);
+  for (size_t i = 0; i < r->fits.size(); ++i) {
+    if (r->fits[i].type == best.type) r->recommended = static_cast<int>(i);
+  }
+
+  std::vector<std::string> header = {"freq[Hz]", "psd_x[(mm/s²)²/Hz]", "psd_y[(mm/s²)²/Hz]",
+                                     "psd_z[(mm/s²)²/Hz]", "psd_xyz[(mm/s²)²/Hz]"};
+  for (const ShaperFit& f : r->fits) {
+    header.push_back(fmt::format("shaper {} {:.1f}Hz vibr {:.1f}% sm {:.3f}mm accel<={:.0f}",
+                                 f.shaper.name, f.frequency, 100 * f.vibration, f.smoothing * kMm,
+                                 f.max_accel * kMm));
+  }
+  CsvWriter csv(o.out + "_psd.csv", header);
+  for (size_t k = 0; k < rows.size(); ++k) {
+    std::vector<double> row(rows[k].begin(), rows[k].end());
+    row.insert(row.begin(), band_f[k]);
+    for (const ShaperFit& f : r->fits) {  // the worst over the test dampings, as fitted
+      double v = 0;
+      for (double zeta : fit.test_dampings) {
+        v = std::max(v, RemainingVibration(f.shaper, band_f[k], zeta));
+      }
+      row.push_back(v);
+    }
+    csv.Row(row);
+  }
+  csv.Commit();
+}
+
+}  // namespace
+
+ResonanceResult RunResonanceTest(const ResonanceOptions& o, std::ostream& progress) {
+  Validate(o.test);
+  if (o.axis != 'x' && o.axis != 'y') {
+    throw std::invalid_argument(fmt::format("--axis {}: must be x or y", o.axis));
+  }
+  const StepperModel sm = LoadStepperModel(o.model, o.overrides);
+  const mjModel* m = sm.model.get();
+  const auto kinematics = Kinematics(m, sm.steppers);
+  const int accel_adr = AccelerometerAddress(m, o.accelerometer);
+  DataPtr data(mj_makeData(m));
+  mjData* d = data.get();
+  mj_forward(m, d);
+
+  // Each stepper's start angle and step angle; the commands follow the toolhead's excursion.
+  const int axis = o.axis == 'x' ? 0 : 1;
+  std::vector<double> theta0, step_angle;
+  for (const StepperActuator& s : sm.steppers) {
+    theta0.push_back(d->actuator_length[s.outadr]);
+    step_angle.push_back(StepAngle(s.config));
+    if (s.config.profile.kind != ProfileKind::kNone) {
+      throw std::invalid_argument(fmt::format(
+          "stepper '{}' has its own motion profile: the resonance test commands the rotor angle "
+          "itself (set profile=none)",
+          s.name));
+    }
+  }
+  const double h = m->opt.timestep;
+  const long steps = std::lround(o.test.Duration() / h);
+  ResonanceExcitation excitation(o.test);
+  Adxl345 adxl(o.adxl, d->time);
+  std::vector<AccelSample> samples;
+  samples.reserve(static_cast<size_t>(o.test.Duration() * o.adxl.rate) + 16);
+  double previous = 0;  // m, the excursion at the step's start
+  const auto start = std::chrono::steady_clock::now();
+  auto last_report = start;
+  for (long k = 0; k < steps; ++k) {
+    const double t = d->time;
+    const double next = excitation.Advance(h);  // m, at the step's end
+    for (size_t i = 0; i < sm.steppers.size(); ++i) {
+      const StepperActuator& s = sm.steppers[i];
+      const double ratio = kinematics[i][axis];       // rad/m
+      const double theta = theta0[i] + ratio * next;  // rad, at the step's end
+      switch (s.config.input) {
+        case InputMode::kSteps:
+          d->ctrl[s.ctrladr] = std::round(theta / step_angle[i]);
+          break;
+        case InputMode::kVelocity:
+          d->ctrl[s.ctrladr] = ratio * (next - previous) / h;
+          break;
+        case InputMode::kPosition:
+          d->ctrl[s.ctrladr] = theta0[i] + ratio * 0.5 * (previous + next);
+          break;
+      }
+    }
+    previous = next;
+    mj_step(m, d);
+    if (const std::string unstable = InstabilityMessage(d, t); !unstable.empty()) {
+      throw std::runtime_error(unstable);
+    }
+    // After mj_step the sensors describe the step's start: held over [t, t + h).
+    const mjtNum* a = d->sensordata + accel_adr;
+    adxl.Add(t, t + h, {a[0], a[1], a[2]}, &samples);
+    const auto now = std::chrono::steady_clock::now();
+    if (o.progress && now - last_report > std::chrono::seconds(2)) {
+      last_report = now;
+      fmt::print(progress, "\r  {:5.1f} % ({:.1f} Hz, {:.1f} / {:.1f} s simulated)",
+                 100.0 * (k + 1) / steps, excitation.frequency(), d->time, o.test.Duration());
+      progress.flush();
+    }
+  }
+  if (o.progress && last_report != start) fmt::print(progress, "\n");
+
+  // Klipper's raw accelerometer log.
+  CsvWriter raw(o.out + "_raw.csv", {"#time", "accel_x", "accel_y", "accel_z"});
+  for (const AccelSample& s : samples) {
+    const double row[] = {s.time, s.accel[0] * kMm, s.accel[1] * kMm, s.accel[2] * kMm};
+    raw.Row(row);
+  }
+  raw.Commit();
+
+  ResonanceResult result;
+  result.samples = static_cast<long>(samples.size());
+  WriteResponse(o, samples, &result);
+  return result;
+}
+
+}  // namespace mjstepper::tools
