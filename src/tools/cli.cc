@@ -48,6 +48,12 @@ CommandLine::CommandLine() : app_("mjstepper: stepper motors and their drives on
                    "within ±1e4 rad/s, angles ±1e7 rad, times 1e6 s; or steps(FILE), a "
                    "STEP/DIR list (one step time in s per line, optionally +1/-1) for input=steps");
   run_->add_option("--log", c.run.log, "CSV log (a regular file or nothing; written whole)");
+  run_->add_option("--accel-log", c.run.accel_log,
+                   "the toolhead's virtual ADXL345 in Klipper's raw format (#time,accel_x,"
+                   "accel_y,accel_z; s, mm/s²)");
+  run_->add_option("--accelerometer", c.run.accelerometer,
+                   "the MuJoCo accelerometer sensor --accel-log reads")
+      ->default_val("toolhead_accel");
   run_->add_option("--render", c.run.render.video, "MP4 video of the run (ffmpeg)");
   run_->add_option("--frames", c.run.render.frames_dir, "folder for PNG frames");
   run_->add_option("--camera", c.run.render.renderer.camera,
@@ -241,6 +247,7 @@ void CommandLine::Check() {
     }
     std::vector<std::pair<std::string, std::string>> outputs;
     for (const auto& [option, path] : {std::pair<const char*, const std::string&>{"--log", run.log},
+                                       {"--accel-log", run.accel_log},
                                        {"--plot", c.run_plot},
                                        {"--render", run.render.video},
                                        {"--frames", run.render.frames_dir}}) {

@@ -40,19 +40,6 @@ std::vector<std::array<double, 3>> Kinematics(const mjModel* m,
   return out;
 }
 
-// The accelerometer sensor `name`: its sensordata address.
-int AccelerometerAddress(const mjModel* m, const std::string& name) {
-  const int id = mj_name2id(m, mjOBJ_SENSOR, name.c_str());
-  if (id < 0 || m->sensor_type[id] != mjSENS_ACCELEROMETER) {
-    throw std::invalid_argument(fmt::format(
-        "--accelerometer {}: the model has no accelerometer sensor of that name (add <sensor>"
-        "<accelerometer name=\"{}\" site=\"...\"/></sensor> on the toolhead, its site's axes the "
-        "printer's X, Y, Z)",
-        name, name));
-  }
-  return m->sensor_adr[id];
-}
-
 // The PSDs (Welch, 0.5 s Hann segments, SPEC §9) of the three axes in Klipper's units, the shapers
 // fitted to the tested axis' and PREFIX_psd.csv.
 void WriteResponse(const ResonanceOptions& o, const std::vector<AccelSample>& samples,
@@ -129,6 +116,27 @@ void WriteResponse(const ResonanceOptions& o, const std::vector<AccelSample>& sa
 
 }  // namespace
 
+int AccelerometerAddress(const mjModel* m, const std::string& name) {
+  const int id = mj_name2id(m, mjOBJ_SENSOR, name.c_str());
+  if (id < 0 || m->sensor_type[id] != mjSENS_ACCELEROMETER) {
+    throw std::invalid_argument(fmt::format(
+        "--accelerometer {}: the model has no accelerometer sensor of that name (add <sensor>"
+        "<accelerometer name=\"{}\" site=\"...\"/></sensor> on the toolhead, its site's axes the "
+        "printer's X, Y, Z)",
+        name, name));
+  }
+  return m->sensor_adr[id];
+}
+
+void WriteKlipperAccelLog(const std::string& path, const std::vector<AccelSample>& samples) {
+  CsvWriter raw(path, {"#time", "accel_x", "accel_y", "accel_z"});
+  for (const AccelSample& s : samples) {
+    const double row[] = {s.time, s.accel[0] * kMm, s.accel[1] * kMm, s.accel[2] * kMm};
+    raw.Row(row);
+  }
+  raw.Commit();
+}
+
 ResonanceResult RunResonanceTest(const ResonanceOptions& o, std::ostream& progress) {
   Validate(o.test);
   if (o.axis != 'x' && o.axis != 'y') {
@@ -201,13 +209,7 @@ ResonanceResult RunResonanceTest(const ResonanceOptions& o, std::ostream& progre
   }
   if (o.progress && last_report != start) fmt::print(progress, "\n");
 
-  // Klipper's raw accelerometer log.
-  CsvWriter raw(o.out + "_raw.csv", {"#time", "accel_x", "accel_y", "accel_z"});
-  for (const AccelSample& s : samples) {
-    const double row[] = {s.time, s.accel[0] * kMm, s.accel[1] * kMm, s.accel[2] * kMm};
-    raw.Row(row);
-  }
-  raw.Commit();
+  WriteKlipperAccelLog(o.out + "_raw.csv", samples);  // Klipper's raw accelerometer log
 
   ResonanceResult result;
   result.samples = static_cast<long>(samples.size());

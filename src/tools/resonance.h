@@ -20,6 +20,8 @@
 #ifndef MJSTEPPER_TOOLS_RESONANCE_H_
 #define MJSTEPPER_TOOLS_RESONANCE_H_
 
+#include <mujoco/mujoco.h>
+
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -50,6 +52,14 @@ struct ResonanceResult {
   int recommended = -1;           ///< index into fits
   long samples = 0;               ///< accelerometer samples written
 };
+
+/// The sensordata address of the model's accelerometer sensor `name`; throws
+/// std::invalid_argument naming it when there is none.
+int AccelerometerAddress(const mjModel* m, const std::string& name);
+
+/// Writes ADXL345 samples to `path` in Klipper's raw format (the header above, s and mm/s²),
+/// whole or not at all.
+void WriteKlipperAccelLog(const std::string& path, const std::vector<AccelSample>& samples);
 
 /// Throws std::runtime_error or std::invalid_argument with a message for the user.
 ResonanceResult RunResonanceTest(const ResonanceOptions& options, std::ostream& progress);

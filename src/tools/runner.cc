@@ -10,11 +10,13 @@
 #include <stdexcept>
 
 #include "core/command_profile.h"
+#include "core/sensors/adxl345.h"
 #include "core/signals.h"
 #include "core/units.h"
 #include "csv_writer.h"
 #include "options.h"
 #include "render_session.h"
+#include "resonance.h"
 #include "stepper_model.h"
 
 namespace mjstepper::tools {
@@ -123,6 +125,13 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     csv.emplace(options.log, header);
   }
 
+  // The toolhead's accelerometer, as the ADXL345 reports it (issue 18).
+  std::optional<Adxl345> adxl;
+  std::vector<AccelSample> accel_samples;
+  const int accel_adr =
+      options.accel_log.empty() ? -1 : AccelerometerAddress(m, options.accelerometer);
+  if (accel_adr >= 0) adxl.emplace(Adxl345Options{}, d->time);
+
   std::optional<RenderSession> render;
   if (options.render.enabled()) render.emplace(m, sm.steppers, options.render);
   std::vector<StepperSample> samples(sm.steppers.size());
@@ -146,9 +155,8 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     const double t = d->time;
     for (size_t i = 0; i < sm.steppers.size(); ++i) {
       const StepperActuator& s = sm.steppers[i];
-      d->ctrl[s.ctrladr] =
-          profiles[i].ControlForStep(t - t_begin, h, s.config.input, theta_start[i],
-                                     StepAngle(s.config));
+      d->ctrl[s.ctrladr] = profiles[i].ControlForStep(t - t_begin, h, s.config.input,
+                                                      theta_start[i], StepAngle(s.config));
     }
     static const int kLoadAngle = SignalIndex("load_angle");
     static const int kLostSteps = SignalIndex("lost_steps");
@@ -201,6 +209,10 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     }
     if (csv && k % options.log_every == 0) csv->Row(row);
     if (render) render->Step(t, samples, d);
+    if (adxl) {  // the sensor after mj_step describes the step's start: held over [t, t + h)
+      const mjtNum* a = d->sensordata + accel_adr;
+      adxl->Add(t, t + h, {a[0], a[1], a[2]}, &accel_samples);
+    }
     const auto now = std::chrono::steady_clock::now();
     if (options.progress && now - last_report > std::chrono::seconds(2)) {
       last_report = now;
@@ -211,6 +223,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   }
   if (options.progress && last_report != start) fmt::print(progress, "\n");
   if (csv) csv->Commit();
+  if (adxl) WriteKlipperAccelLog(options.accel_log, accel_samples);
   if (render) result.frames = render->Finish();
   result.steps = steps;
   result.sim_time = d->time;

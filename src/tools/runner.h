@@ -26,6 +26,10 @@ struct RunOptions {
   std::map<std::string, double> masses;     ///< body name → mass, kg (SetBodyMass)
   bool keep_traces = false;                 ///< fill RunResult::traces (for studies and tests)
   RenderOptions render;                     ///< video and frames; off unless a path is given
+  /// A virtual ADXL345 on the MuJoCo accelerometer sensor `accelerometer`, logged in Klipper's raw
+  /// format (resonance.h) to `accel_log`; empty: none.
+  std::string accel_log;
+  std::string accelerometer = "toolhead_accel";
 };
 
 /// Per-step records of one stepper, at each step's start.
