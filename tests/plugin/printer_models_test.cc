@@ -20,82 +20,11 @@
 #include "config.h"
 #include "core/drive.h"
 #include "core/units.h"
+#include "printer_axes.h"
 #include "test_model.h"
 
 namespace mjstepper::testing {
 namespace {
-
-constexpr double kEA = 1.94e4;  // N, GT2 6 mm belt: specific stiffness (models/README.md)
-
-// One belt axis as documented in models/README.md: a carriage of mass `mass` on `belts` belts in
-// parallel, each of stiffness `belt_stiffness`, to `belts` rotors of inertia J on pulleys of
-// radius r, each held by its motor's T' = Nr·Km·I_peak; R, L, Km for the winding's own stiffness.
-struct Axis {
-  const char* joint;       // the carriage's (or bed's) slide joint
-  double mass;             // kg
-  int belts;               // 2 for either CoreXY axis, 1 for a Cartesian one
-  double belt_stiffness;   // N/m, each
-  double radius;           // m, pulley pitch radius
-  double holding;          // N·m/rad, T' of each motor
-  double resistance;       // Ω, the motor's phase R
-  double inductance;       // H, its L
-  double torque_constant;  // N·m/A, its Km
-};
-
-constexpr double kRotorInertia = 8.2e-6;  // kg·m², both catalogue motors (armature)
-
-// CoreXY: EA/L with L = 0.45 m; 17HS19-2004S1 (Nr 50, R 1.4 Ω, L 3 mH, Km 0.208597 N·m/A) at
-// T' = 50·0.208597·1.125 (TMC2209, 0.8 A → 0.7955 A RMS).
-constexpr double kCoreXYRadius = 0.04 / (2 * std::numbers::pi);
-constexpr double kCoreXYBelt = kEA / 0.45;
-constexpr double kCoreXYHolding = 50 * 0.208597 * 1.125;
-constexpr Axis kCoreXYX{"x", 0.50,  2,       kCoreXYBelt, kCoreXYRadius, kCoreXYHolding,
-                        1.4, 0.003, 0.208597};
-constexpr Axis kCoreXYY{"y", 1.10,  2,       kCoreXYBelt, kCoreXYRadius, kCoreXYHolding,
-                        1.4, 0.003, 0.208597};
-// Bed-slinger: 8·EA/(3·L) with Lx = 0.35 m, Ly = 0.38 m; 17HM19-2004S (Nr 100, R 1.45 Ω, L 4 mH,
-// Km 0.162635 N·m/A) at T' = 100·0.162635·I_peak (TMC2130 with 0.22 Ω: 0.55 A → 0.5386 A RMS,
-// 0.70 A → 0.6882 A RMS).
-constexpr double kBedslingerRadius = 0.032 / (2 * std::numbers::pi);
-constexpr Axis kBedslingerX{
-    "x",  0.55,  1,       8 * kEA / (3 * 0.35), kBedslingerRadius, 100 * 0.162635 * 0.761719,
-    1.45, 0.004, 0.162635};
-constexpr Axis kBedslingerY{
-    "y",  1.10,  1,       8 * kEA / (3 * 0.38), kBedslingerRadius, 100 * 0.162635 * 0.973307,
-    1.45, 0.004, 0.162635};
-
-// The two modes of an axis whose motors each hold with `holding` N·m/rad, rad/s (README): the
-// carriage M = mass on the belts' K = n·k to the rotors' μ = n·J/r² held by K_m = n·T'/r²;
-// det(K − ω²·M) = 0 with K = [[K, −K], [−K, K + K_m]], M = diag(M, μ):
-// M·μ·ω⁴ − (M·(K + K_m) + μ·K)·ω² + K·K_m = 0.
-std::pair<double, double> TwoMassModes(const Axis& a, double holding) {
-  const double mass = a.mass;
-  const double mu = a.belts * kRotorInertia / (a.radius * a.radius);
-  const double k = a.belts * a.belt_stiffness;
-  const double km = a.belts * holding / (a.radius * a.radius);
-  const double b = mass * (k + km) + mu * k;
-  const double root = std::sqrt(b * b - 4 * mass * mu * k * km);
-  return {std::sqrt((b - root) / (2 * mass * mu)), std::sqrt((b + root) / (2 * mass * mu))};
-}
-
-// The closed forms with the motors as the ideal springs T'.
-std::pair<double, double> ClosedFormModes(const Axis& a) { return TwoMassModes(a, a.holding); }
-
-// The lower mode with the winding's own stiffness added (README, "A chopper drive rings higher"):
-// a stepper at rest on a full step has one phase at a zero target, whose bridge the chopper
-// shorts; the back-EMF Km·ω drives a current through R + jωL in it, whose torque in phase with
-// the displacement adds Km²·ω²·L/(R² + ω²·L²) to T' at the ringing frequency ω (solved by
-// iteration; it converges in a few steps as the term varies slowly with ω).
-double ShortedPhaseMode(const Axis& a) {
-  double w = ClosedFormModes(a).first;
-  for (int i = 0; i < 30; ++i) {
-    const double km2 = a.torque_constant * a.torque_constant;
-    const double wl = w * a.inductance;
-    const double extra = km2 * w * wl / (a.resistance * a.resistance + wl * wl);
-    w = TwoMassModes(a, a.holding + extra).first;
-  }
-  return w;
-}
 
 ModelPtr LoadShipped(const std::string& name) {
   std::ifstream file(std::string(MJSTEPPER_SOURCE_DIR "/models/") + name);
@@ -303,9 +232,9 @@ ModelPtr IdealSpringVariant(const std::string& name) {
 
 // Free vibration: tapped along one axis with both steppers holding, the toolhead (the bed for the
 // bed-slinger's Y) rings at the axis's lower closed-form mode.
-// - With the motors as ideal springs (`ideal_current`), to 0.5 %: what is left is the belts'
-//   damping (ω_d = ω·√(1 − ζ²), ζ < 0.03), the DFT's resolution and the integrator's (ω·h)²/24 <
-//   1e-5; measured within 0.1 %. This checks the closed form and the model together.
+// - With the motors as ideal springs (`ideal_current`), to 0.5 % of the damped closed form
+//   ω·√(1 − ζ²) (the belts' ζ ≈ 0.065-0.1, DampingRatio): what is left is the DFT's resolution
+//   and the integrator's (ω·h)²/24 < 1e-5. This checks the closed form and the model together.
 // - As shipped (SpreadCycle through real windings), to 5 % (the issue's): the chip regulates the
 //   currents, but at a full-step rest one phase has a zero target and its bridge is shorted
 //   (switching.h, IdleBridge), so the back-EMF drives a current through it that stiffens the
@@ -338,7 +267,8 @@ TEST(PrinterModels, TappedToolheadRingsAtTheClosedFormFrequency) {
                         Case{corexy.get(), kCoreXYY, "x", 0.05, "spreadcycle"},
                         Case{bedslinger.get(), kBedslingerX, "y", 0.05, "spreadcycle"},
                         Case{bedslinger.get(), kBedslingerY, "x", 0.05, "spreadcycle"}}) {
-    const double expected = ClosedFormModes(c.axis).first;
+    const double damped = std::sqrt(1 - DampingRatio(c.axis) * DampingRatio(c.axis));
+    const double expected = ClosedFormModes(c.axis).first * damped;
     const Ringing r = Tap(c.model, c.axis.joint, c.other, 0.3 * expected, 2.5 * expected);
     const std::string what =
         std::string(c.model->names) + " " + c.axis.joint + " (" + c.drive + ")";
@@ -352,7 +282,7 @@ TEST(PrinterModels, TappedToolheadRingsAtTheClosedFormFrequency) {
         what.c_str(), r.omega / kTwoPi, expected / kTwoPi, 100 * (r.omega / expected - 1),
         1e6 * r.excited_peak, 1e6 * r.other_peak);
     if (std::string(c.drive) == "spreadcycle") {
-      const double shorted = ShortedPhaseMode(c.axis);
+      const double shorted = ShortedPhaseMode(c.axis) * damped;
       EXPECT_NEAR(r.omega, shorted, 0.01 * shorted)
           << what << ": rings at " << r.omega / kTwoPi << " Hz, with the shorted phase "
           << shorted / kTwoPi << " Hz";
