@@ -178,6 +178,13 @@ CommandLine::CommandLine() : app_("mjstepper: stepper motors and their drives on
       ->add_option("--accel-rate", c.resonance.adxl.rate,
                    "Hz, the ADXL345's output data rate (3200)")
       ->check(InRange("accel-rate"));
+  resonance_->add_option("--accel-range", accel_range_, "g, the ADXL345's range (±2, 4, 8, 16)")
+      ->check(CLI::IsMember({2, 4, 8, 16}));
+  resonance_
+      ->add_option("--accel-noise", accel_noise_,
+                   "µg/√Hz, the ADXL345's noise density on X and Y (data sheet: 290; Z at "
+                   "430/290 of it; 0: none)")
+      ->check(InRange("accel-noise"));
   resonance_->add_option("--seed", c.resonance.adxl.seed, "the accelerometer noise's seed");
   resonance_->add_option("--set", sets_, kSetHelp);
   resonance_->add_flag("--quiet", quiet_, "no progress line");
@@ -317,6 +324,9 @@ void CommandLine::Check() {
     c.kind = CommandKind::kResonance;
     c.resonance.axis = axis_.at(0);
     c.resonance.test.accel_per_hz = accel_per_hz_ / 1000;  // m/s² per Hz
+    c.resonance.adxl.range = accel_range_ * kStandardGravity;
+    const double density = accel_noise_ * 1e-6 * kStandardGravity;  // m/s²/√Hz
+    c.resonance.adxl.noise_density = {density, density, density * 430 / 290};
     c.resonance.overrides = overrides;
     c.resonance.progress = !quiet_;
     c.resonance.out = c.out;

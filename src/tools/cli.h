@@ -78,6 +78,8 @@ class CommandLine {
   std::vector<std::string> ctrl_, sets_, masses_, loads_;
   std::string size_ = "1280x720", vary_, axis_;
   double accel_per_hz_ = 75;  // mm/s² per Hz, as Klipper states it
+  int accel_range_ = 16;      // g
+  double accel_noise_ = 290;  // µg/√Hz on X and Y
   bool quiet_ = false, no_overlay_ = false;
 };
 

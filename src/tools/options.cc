@@ -41,6 +41,7 @@ constexpr OptionRange kRanges[] = {
     {"hz-per-sec", 0.01, 100, "Hz/s", "how fast a resonance test's frequency rises"},
     {"test-duration", 0.01, 3600, "s", "(max-freq − min-freq)/hz-per-sec: a resonance test"},
     {"accel-rate", 100, 3200, "Hz", "the ADXL345's output data rate (its range)"},
+    {"accel-noise", 0, 1e5, "µg/√Hz", "the ADXL345's noise density (data sheet: 290 on X, Y)"},
 };
 
 }  // namespace

@@ -121,6 +121,23 @@ TEST(Runner, StepTimeListDrivesASteppingStepper) {
   EXPECT_THAT(refused.output, HasSubstr("set shaft.input=steps"));
 }
 
+// Issue 18: run --accel-log writes the toolhead's virtual ADXL345 in Klipper's raw format: the
+// header line exactly, 3200 rows per simulated second; a model without the sensor is named.
+TEST(Runner, AccelLogIsKlippersRawFormat) {
+  const auto log = TempDir() / "accel.csv";
+  const Result r = RunCli("run " MJSTEPPER_SOURCE_DIR
+                          "/models/corexy.xml --duration 0.05 --quiet "
+                          "--accel-log " +
+                          log.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto [header, rows] = HeaderAndRows(log.string());
+  EXPECT_EQ(header, "#time,accel_x,accel_y,accel_z");
+  EXPECT_EQ(rows, 160);  // 0.05 s at 3200 Hz
+  const Result missing = RunCli("run " + kModel + " --duration 0.01 --accel-log " + log.string());
+  EXPECT_NE(missing.status, 0);
+  EXPECT_THAT(missing.output, HasSubstr("--accelerometer toolhead_accel"));
+}
+
 // An angle profile on a velocity-input stepper was reduced to its slope: constant(0.5rad) stood
 // still. It is refused, naming the stepper and what to do.
 TEST(Runner, AngleProfileOnAVelocityStepperIsRefused) {
@@ -384,7 +401,8 @@ TEST(Runner, ArmLosesStepsOnlyWithTooMuchPayload) {
   const auto csv = TempDir() / "arm.csv";
   const std::string move =
       " --duration 2 --quiet --ctrl 'base=constant(5rad)' --ctrl 'shoulder=constant(-12rad)' "
-      "--ctrl 'elbow=constant(8rad)' --log " + csv.string();
+      "--ctrl 'elbow=constant(8rad)' --log " +
+      csv.string();
   Result r = RunCli("run " + arm + move + " --mass payload=0.5");
   ASSERT_EQ(r.status, 0) << r.output;
   for (const char* joint : {"base", "shoulder", "elbow"}) {
