@@ -116,18 +116,6 @@ void WriteResponse(const ResonanceOptions& o, const std::vector<AccelSample>& sa
 
 }  // namespace
 
-int AccelerometerAddress(const mjModel* m, const std::string& name) {
-  const int id = mj_name2id(m, mjOBJ_SENSOR, name.c_str());
-  if (id < 0 || m->sensor_type[id] != mjSENS_ACCELEROMETER) {
-    throw std::invalid_argument(fmt::format(
-        "--accelerometer {}: the model has no accelerometer sensor of that name (add <sensor>"
-        "<accelerometer name=\"{}\" site=\"...\"/></sensor> on the toolhead, its site's axes the "
-        "printer's X, Y, Z)",
-        name, name));
-  }
-  return m->sensor_adr[id];
-}
-
 void WriteKlipperAccelLog(const std::string& path, const std::vector<AccelSample>& samples) {
   CsvWriter raw(path, {"#time", "accel_x", "accel_y", "accel_z"});
   for (const AccelSample& s : samples) {

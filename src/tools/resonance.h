@@ -20,8 +20,6 @@
 #ifndef MJSTEPPER_TOOLS_RESONANCE_H_
 #define MJSTEPPER_TOOLS_RESONANCE_H_
 
-#include <mujoco/mujoco.h>
-
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -52,10 +50,6 @@ struct ResonanceResult {
   int recommended = -1;           ///< index into fits
   long samples = 0;               ///< accelerometer samples written
 };
-
-/// The sensordata address of the model's accelerometer sensor `name`; throws
-/// std::invalid_argument naming it when there is none.
-int AccelerometerAddress(const mjModel* m, const std::string& name);
 
 /// Writes ADXL345 samples to `path` in Klipper's raw format (the header above, s and mm/s²),
 /// whole or not at all.

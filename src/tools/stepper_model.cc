@@ -4,10 +4,8 @@
 #include <fmt/ranges.h>
 
 #include <Eigen/Dense>
-
 #include <algorithm>
 #include <cmath>
-
 #include <cstdio>
 #include <cstdlib>
 #include <mutex>
@@ -56,8 +54,7 @@ std::string DistinctLines(const std::string& text) {
 ModelPtr Compile(mjSpec* spec, const mjVFS* vfs) {
   ModelPtr model(mj_compile(spec, vfs));
   if (!model) {
-    throw std::runtime_error(
-        fmt::format("compile error: {}", DistinctLines(mjs_getError(spec))));
+    throw std::runtime_error(fmt::format("compile error: {}", DistinctLines(mjs_getError(spec))));
   }
   return model;
 }
@@ -191,10 +188,10 @@ void SetLoadTorque(mjModel* m, const std::string& name, double torque) {
   mjtNum* bias = m->actuator_biasprm + id * mjNBIAS;
   if (m->actuator_plugin[id] >= 0 || m->actuator_gaintype[id] != mjGAIN_FIXED || gain[0] != 0 ||
       m->actuator_biastype[id] != mjBIAS_AFFINE || bias[1] != 0 || bias[2] != 0) {
-    throw std::invalid_argument(fmt::format(
-        "{}: actuator '{}' is not a constant load; write it as <general gainprm=\"0\" "
-        "biastype=\"affine\" biasprm=\"-TORQUE 0 0\"/> on the joint (plugin/README.md)",
-        what, name));
+    throw std::invalid_argument(
+        fmt::format("{}: actuator '{}' is not a constant load; write it as <general gainprm=\"0\" "
+                    "biastype=\"affine\" biasprm=\"-TORQUE 0 0\"/> on the joint (plugin/README.md)",
+                    what, name));
   }
   bias[0] = -torque;
 }
@@ -257,8 +254,8 @@ double HighestMode(const mjModel* m, const std::vector<StepperActuator>& stepper
     const double gear = Gear(m, s);
     stiffness(dof, dof) += Drive(s.config).HoldingStiffness() * gear * gear;
   }
-  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> solver(
-      stiffness, mass, Eigen::EigenvaluesOnly);
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> solver(stiffness, mass,
+                                                                         Eigen::EigenvaluesOnly);
   return std::sqrt(std::max(0.0, solver.eigenvalues().maxCoeff()));
 }
 
@@ -271,6 +268,18 @@ double ReflectedInertia(const mjModel* m, int actuator) {
   const int dof = m->jnt_dofadr[joint];
   const double gear = m->actuator_gear[6 * m->actuator_outadr[actuator]];
   return dense[dof * m->nv + dof] / (gear * gear);
+}
+
+int AccelerometerAddress(const mjModel* m, const std::string& name) {
+  const int id = mj_name2id(m, mjOBJ_SENSOR, name.c_str());
+  if (id < 0 || m->sensor_type[id] != mjSENS_ACCELEROMETER) {
+    throw std::invalid_argument(fmt::format(
+        "--accelerometer {}: the model has no accelerometer sensor of that name (add <sensor>"
+        "<accelerometer name=\"{}\" site=\"...\"/></sensor> on the toolhead, its site's axes the "
+        "printer's X, Y, Z)",
+        name, name));
+  }
+  return m->sensor_adr[id];
 }
 
 }  // namespace mjstepper::tools

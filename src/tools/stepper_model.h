@@ -52,6 +52,10 @@ void LoadPluginLibrary();
 StepperModel LoadStepperModel(const std::string& path,
                               const std::vector<ConfigOverride>& overrides = {});
 
+/// The sensordata address of the model's accelerometer sensor `name` (a virtual ADXL345's input,
+/// resonance.h); throws std::invalid_argument naming it when there is none.
+int AccelerometerAddress(const mjModel* m, const std::string& name);
+
 /// "" while the run is sound; else what MuJoCo found when it reset the simulation (a bad qpos,
 /// qvel or qacc: mjWARN_BADQPOS/QVEL/QACC, counted in d->warning), at time t (s).
 std::string InstabilityMessage(const mjData* d, double t);
