@@ -56,12 +56,16 @@ double FirstCrossing(const MotorParams& p, const SpeedKernel& speed, PhaseVector
   };
   const double g_from = g(from, nullptr);
   if (g_from >= 0) return from;  // already past the level when the comparator is armed
-  // Pieces of at most 0.5 rad of electrical rotation, split at the ramp's end (a kink of ℓ).
-  const double piece = W != 0 ? 0.5 / std::abs(W) : kNever;
+  // Pieces of at most 0.5 rad of electrical rotation, split at the ramp's end (a kink of ℓ), and
+  // at most kMaxCrossingPieces of them (bounded work at any speed, found by the drive fuzzer: at
+  // an absurd speed 0.5/|Ω| fell below the round-off of `lo` and the loop never moved).
+  const double piece =
+      std::max(W != 0 ? 0.5 / std::abs(W) : kNever, (to - from) / kMaxCrossingPieces);
   const double kink = from + ramp;
   double lo = from, g_lo = g_from;
   while (lo < to) {
     double hi = std::min(to, lo + piece);
+    if (!(hi > lo)) hi = to;  // a piece below lo's round-off: the rest at once
     if (kink > lo && kink < hi) hi = kink;
     const double g_hi = g(hi, nullptr);
     if (g_hi >= 0) {

@@ -71,6 +71,9 @@ double NextSwitchTime(const PhaseSwitch& sw, int phase, const MotorParams& p,
                       const SpeedKernel& speed, PhaseVector current0, PhaseVector voltage,
                       PhaseVector phasor0, double t, double t_end);
 
+/// The most pieces FirstCrossing searches an interval in.
+inline constexpr int kMaxCrossingPieces = 64;
+
 /// The first τ in [from, to] (s from the interval's start) at which component `phase` of the exact
 /// winding current i(τ) = v/R + P·z0·e^{jΩτ} + (i0 − v/R − P·z0)·e^{−aτ} (winding.h) reaches the
 /// level ℓ(τ) = level0 + slope·clamp(τ − from, 0, ramp) going in `direction` (+1 up, −1 down),
@@ -79,7 +82,9 @@ double NextSwitchTime(const PhaseSwitch& sw, int phase, const MotorParams& p,
 /// The interval is searched in pieces of at most 0.5 rad of electrical rotation (over which the
 /// back-EMF term is nearly monotone), each root refined by a safeguarded Newton iteration to
 /// 1e-12 s: a crossing and a re-crossing within one such piece (a current grazing its level) can be
-/// missed, which the tests bound.
+/// missed, which the tests bound. At most kMaxCrossingPieces pieces: beyond 32 rad of electrical
+/// rotation in one interval (a held bridge over a long step at a speed far past any stepper's
+/// pull-out), the pieces lengthen and the search coarsens, so that its work is bounded.
 double FirstCrossing(const MotorParams& p, const SpeedKernel& speed, PhaseVector current0,
                      PhaseVector voltage, PhaseVector phasor0, int phase, int direction,
                      double level0, double slope, double ramp, double from, double to);

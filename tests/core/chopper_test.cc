@@ -148,6 +148,22 @@ TEST(Chopper, FastDecayFollowsAFallingCurrentThatSlowDecayCannot) {
   EXPECT_GT(slow_fast, 2 * mixed_fast);
 }
 
+// Found by the drive fuzzer: at an absurd rotor speed (1e9 rad/s here) the crossing search's
+// 0.5-rad pieces fell below the round-off of the time and it never moved on. Now at most
+// kMaxCrossingPieces pieces per search: the step returns (a hang fails this test by ctest's
+// timeout) with a finite state.
+TEST(Chopper, AnAbsurdSpeedStepReturns) {
+  const Drive drive(Config(Chopper(ConstantOffTime::Decay::kMixed)));
+  DriveState s = drive.Rest(0.0, 0.0, 0.0);
+  drive.Advance(&s, 0.0, 1e-3, 1e6, 1e9);
+  EXPECT_TRUE(std::isfinite(s.current_a) && std::isfinite(s.current_b));
+  EXPECT_EQ(s.theta, 1e6);
+  // 1e19 rad/s: half a radian of electrical rotation is 1e-21 s, below the round-off of t = 1 s.
+  DriveState t = drive.Rest(1.0, 0.0, 0.0);
+  drive.Advance(&t, 1.0, 1.0 + 1e-9, 1e10, 0.0);
+  EXPECT_TRUE(std::isfinite(t.current_a) && std::isfinite(t.current_b));
+}
+
 TEST(Chopper, LeastOnTimeSetsTheLeastCurrentSlowDecayRegulates) {
   // A4988 datasheet, "Low Current Microstepping": "the minimum on-time prevents the output current
   // from regulating to the programmed current level at low current steps", which mixed decay
