@@ -30,8 +30,8 @@ StepTimes StepTimes::Parse(std::istream& in, const std::string& source) {
     if (!ParseFiniteDouble(time_text, &time) || !(time >= 0 && time <= 1e6)) {
       throw bad("a step time is a number of seconds in [0, 1e6]");
     }
-    if (!direction_text.empty() && (!ParseFiniteDouble(direction_text, &direction) ||
-                                    (direction != 1 && direction != -1))) {
+    if (!direction_text.empty() &&
+        (!ParseFiniteDouble(direction_text, &direction) || (direction != 1 && direction != -1))) {
       throw bad("the direction after the time is +1 or -1");
     }
     if (!extra.empty()) throw bad("expected a time and at most a direction");
@@ -68,7 +68,9 @@ double StepTimes::Rate(double t) const {
   if (it == times_.begin() || it == times_.end()) return 0.0;
   const std::size_t next = it - times_.begin();
   const double interval = times_[next] - times_[next - 1];  // s
-  const double direction = counts_[next] - counts_[next - 1];
+  // Every step at the next time (steps may share a time): the last of them.
+  const std::size_t last = std::upper_bound(it, times_.end(), times_[next]) - times_.begin() - 1;
+  const double direction = counts_[last] - counts_[next - 1];
   return interval > 0 ? direction / interval : 0.0;
 }
 

@@ -69,6 +69,12 @@ void WriteResponse(const ResonanceOptions& o, const std::vector<AccelSample>& sa
     band_psd.push_back(spectra[axis].psd[k]);
     rows.push_back({x, y, z, x + y + z});
   }
+  if (band_f.size() < 3) {
+    throw std::invalid_argument(fmt::format(
+        "--min-freq {:g} to --max-freq {:g}: the PSD's bins are {:g} Hz apart (0.5 s segments); "
+        "give a band of at least three of them",
+        o.test.min_freq, o.test.max_freq, rate / segment));
+  }
   r->frequency = band_f;
   r->psd = band_psd;
   // The largest bin, refined by the parabola through it and its neighbours: the bins are 2 Hz

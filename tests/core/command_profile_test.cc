@@ -6,8 +6,8 @@
 #include <cmath>
 #include <fstream>
 #include <sstream>
-#include <string>
 #include <stdexcept>
+#include <string>
 
 #include "core/units.h"
 
@@ -59,7 +59,8 @@ TEST(CommandProfile, BadTextNamesTheProblem) {
 
 // Issue 17: a STEP/DIR stream as a motion controller emits it, one step time per line.
 TEST(StepTimes, CountAndRateFollowTheList) {
-  std::istringstream text("# three steps forward, one back\n0.001\n0.002 +1\n\n0.004 1\n0.005 -1\n");
+  std::istringstream text(
+      "# three steps forward, one back\n0.001\n0.002 +1\n\n0.004 1\n0.005 -1\n");
   const StepTimes s = StepTimes::Parse(text, "moves.txt");
   EXPECT_EQ(s.size(), 4u);
   EXPECT_EQ(s.Count(0.0), 0);
@@ -70,6 +71,9 @@ TEST(StepTimes, CountAndRateFollowTheList) {
   EXPECT_NEAR(s.Rate(0.003), 1 / 0.002, 1e-9);  // from the step at 2 ms to the one at 4 ms
   EXPECT_NEAR(s.Rate(0.0045), -1 / 0.001, 1e-9);
   EXPECT_EQ(s.Rate(0.0), 0);
+  // Two steps at one time (a motion controller's doubled pulse): both count in the rate.
+  std::istringstream doubled("0.001\n0.002\n0.002\n");
+  EXPECT_NEAR(StepTimes::Parse(doubled, "d.txt").Rate(0.0015), 2 / 0.001, 1e-9);
 }
 
 TEST(StepTimes, BadListsNameTheFileAndLine) {
@@ -82,7 +86,8 @@ TEST(StepTimes, BadListsNameTheFileAndLine) {
     }
     return "";
   };
-  EXPECT_THAT(error("0.1\n0.05\n"), HasSubstr("moves.txt:2: \"0.05\": step times must not decrease"));
+  EXPECT_THAT(error("0.1\n0.05\n"),
+              HasSubstr("moves.txt:2: \"0.05\": step times must not decrease"));
   EXPECT_THAT(error("0.1 2\n"), HasSubstr("moves.txt:1"));
   EXPECT_THAT(error("nan\n"), HasSubstr("[0, 1e6]"));
   EXPECT_THAT(error("-1\n"), HasSubstr("[0, 1e6]"));

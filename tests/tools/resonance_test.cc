@@ -292,6 +292,15 @@ TEST(ResonanceTest, ModelWithoutKinematicsOrAccelerometerIsRefusedByName) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("mjstepper:kinematics:x"));
   }
+  ResonanceOptions narrow =
+      Options(Write("n.xml", BeltModel(kKinematics)), (TempDir() / "n").string());
+  narrow.test = {.min_freq = 20, .max_freq = 23, .accel_per_hz = 0.075, .hz_per_sec = 1};
+  try {
+    RunResonanceTest(narrow, progress);
+    ADD_FAILURE() << "a band without PSD bins ran";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("bins are 2 Hz apart"));
+  }
   ResonanceOptions o = Options(Write("k.xml", BeltModel(kKinematics)), (TempDir() / "k").string());
   o.accelerometer = "nozzle";
   try {

@@ -143,6 +143,7 @@ struct SpreadCycle {
   void Start(const PowerStage& stage, double t, State* s) const {
     for (PhaseSwitch& sw : s->phase) {
       StartCycle(t, stage.bus_voltage, &sw);
+      if (sw.mode != kOn) continue;  // a zero target: the bridge idles, no comparator
       sw.armed_from = t;
       SetLevel(&sw);
     }

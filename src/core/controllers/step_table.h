@@ -76,8 +76,9 @@ struct MicrostepTable {
   }
 
   /// MicroPlyer measures the step interval with a 2^20-clock counter (TMC2209 datasheet,
-  /// "MicroPlyer"): at f_CLK = 12 MHz a longer interval (a start from standstill) is not spread.
-  static constexpr double kMaxInterpolatedInterval = 1048576.0 / 12e6;  // s
+  /// "MicroPlyer"): a longer interval (a start from standstill) is not spread. 2^20/f_CLK of the
+  /// chip's clock (12 MHz; 13.2 MHz on a TMC2130), s.
+  double max_interpolated_interval = 1048576.0 / 12e6;
 
   /// The position (in microsteps, fractional with interpolation: multiples of microsteps/256)
   /// at tick `tick` (every T = k.isr_period), given the count there; updates the counter.
@@ -90,15 +91,17 @@ struct MicrostepTable {
     if (count != c->count) {  // a step (or several) since the last tick: MicroPlyer restarts
       // The first step, and one after a standstill longer than the counter, is not spread.
       const double since = k - c->change_tick;  // ticks
-      c->interval = c->interval > 0 && since * dk.isr_period <= kMaxInterpolatedInterval
+      c->interval = c->interval > 0 && since * dk.isr_period <= max_interpolated_interval
                         ? std::max(1.0, since)
                         : 1.0;
       c->from = c->count;
       c->count = count;
       c->change_tick = k;
     }
+    // Clamped below too: a tick label that went back (time moved back under the drive) must
+    // not extrapolate the position the wrong way.
     const double progress =
-        c->interval > 0 ? std::min(1.0, (k - c->change_tick) / c->interval) : 1.0;
+        c->interval > 0 ? std::clamp((k - c->change_tick) / c->interval, 0.0, 1.0) : 1.0;
     const double position = c->from + (c->count - c->from) * progress;  // microsteps
     const double fine = 256.0 / microsteps;                             // 1/256 per microstep
     return std::round(position * fine) / fine;
@@ -169,6 +172,8 @@ struct MicrostepTable {
       }
       run_current = r.current;
       interpolate_by_default = chip->interpolate;
+      if (chip->clock_frequency > 0)
+        t.max_interpolated_interval = 1048576.0 / chip->clock_frequency;
     }
     t.peak_current = std::sqrt(2.0) * run_current;
     t.microsteps = a.Integer(kAttrMicrosteps, chip != nullptr ? chip->microsteps : 16, 1, 256);

@@ -22,7 +22,8 @@
 // −64..63 over the 0..1023 range.
 // Limits of the model: no dependence on the current's magnitude or the chopper's duty (the chip's
 // reading changes with both, and its SpreadCycle measurement fails when the back-EMF nears the
-// supply), no measurement noise, and cos δi of the averaged current.
+// supply), no measurement noise, and cos δi of the current at the measuring tick (the
+// chopper's ripple included), not of a current averaged over the step.
 // The blind region: below the speed the chip's TCOOLTHRS sets (here `stallguard_min_speed`),
 // the stall flag and CoolStep are off; Klipper sets it for homing and warns that "sensorless
 // homing ... may not work at speeds below 10 RPM" (too little back-EMF), where e⊥ of a free
