@@ -396,8 +396,42 @@ void Stepper::Visualize(const mjModel* m, const mjData* d, mjvScene* scene, int 
     mju_cross(side, axis, ref);
     mju_scl3(rotor, ref, std::cos(load_angle));
     mju_addToScl3(rotor, side, -std::sin(load_angle));
+    // The gauge sits just beyond the rotor body's geoms along the joint axis, on the side the
+    // camera looks from (mjv_updateScene runs this before it updates the scene's cameras: a
+    // renderer that wants this frame's view calls mjv_updateCamera first; a viewer's is a frame
+    // old): the rotor never hides it. Without a camera yet (all zero), the +axis side.
+    const mjtNum* anchor = d->xanchor + 3 * joint;
+    const mjvGLCamera* eyes = scene->camera;  // left and right eye (the same without stereo)
+    mjtNum to_eye[3], forward = 0;
+    for (int i = 0; i < 3; ++i) {
+      to_eye[i] = 0.5 * (eyes[0].pos[i] + eyes[1].pos[i]) - anchor[i];
+      forward += eyes[0].forward[i] * eyes[0].forward[i];
+    }
+    const bool has_camera = forward > 0.25;  // a unit vector once the camera is set
+    const double sense = has_camera && mju_dot3(to_eye, axis) < 0 ? -1.0 : 1.0;
+    mjtNum toward[3];  // unit, along the axis toward the camera
+    mju_scl3(toward, axis, sense);
+    // How far the rotor's geoms reach along `toward` from the anchor: each geom's box (geom_aabb
+    // in the geom's frame) projected on it.
+    double reach = 0;  // m
+    for (int g = m->body_geomadr[body]; g >= 0 && g < m->body_geomadr[body] + m->body_geomnum[body];
+         ++g) {
+      const mjtNum* aabb = m->geom_aabb + 6 * g;
+      const mjtNum* R = d->geom_xmat + 9 * g;
+      mjtNum centre_world[3], offset[3];
+      mju_mulMatVec3(offset, R, aabb);
+      mju_add3(centre_world, d->geom_xpos + 3 * g, offset);
+      mju_subFrom3(centre_world, anchor);
+      double extent = mju_dot3(centre_world, toward);
+      for (int j = 0; j < 3; ++j) {  // |u·R e_j| h_j
+        extent +=
+            std::abs(toward[0] * R[j] + toward[1] * R[3 + j] + toward[2] * R[6 + j]) * aabb[3 + j];
+      }
+      reach = std::max(reach, extent);
+    }
     mjtNum centre[3];
-    mju_addScl3(centre, d->xanchor + 3 * joint, axis, 0.45 * radius);
+    // (0.3 radius: the thick arrow's half width, 0.16 radius, and its head's clear the rotor.)
+    mju_addScl3(centre, anchor, toward, reach + 0.3 * radius);
     // Command: long and thin, just above; rotor: shorter and thick: both show when they overlap.
     // (MuJoCo draws an arrow of this length about as long as the rotor radius at these widths.)
     struct Arrow {
@@ -411,7 +445,7 @@ void Stepper::Visualize(const mjModel* m, const mjData* d, mjvScene* scene, int 
       mjvGeom* geom = scene->geoms + scene->ngeom++;
       mjv_initGeom(geom, mjGEOM_ARROW, nullptr, nullptr, nullptr, arrow.rgba);
       mjtNum from[3], tip[3];
-      mju_addScl3(from, centre, axis, arrow.lift * radius);
+      mju_addScl3(from, centre, toward, arrow.lift * radius);
       mju_addScl3(tip, from, arrow.direction, arrow.length * radius);
       mjv_connector(geom, mjGEOM_ARROW, arrow.width * radius, from, tip);
       geom->category = mjCAT_DECOR;

@@ -68,7 +68,7 @@ CommandLine::CommandLine() : app_("mjstepper: stepper motors and their drives on
       ->default_val(1.0)
       ->check(InRange("playback"));
   run_->add_option("--overlay", c.run.render.overlay_steppers,
-                   "stepper whose plots are drawn (at most two; default: the first two)");
+                   "stepper whose plots are drawn (repeat for more; default: every stepper)");
   run_->add_flag("--no-overlay", no_overlay_, "no plots or text on the frames");
   run_->add_option("--plot", c.run_plot, "PNG plot of the run (needs --log)");
   run_->add_option("--log-every", c.run.log_every, "log one row every N steps")

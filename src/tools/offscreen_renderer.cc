@@ -4,10 +4,54 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 
 namespace mjstepper::tools {
+
+BodyBounds BoundsOfBodies(const mjModel* m) {
+  BodyBounds bounds;
+  mjData* d = mj_makeData(m);
+  if (d == nullptr) return bounds;
+  mj_kinematics(m, d);  // geom_xpos, geom_xmat at qpos0
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_bodyid[g] == 0 || m->geom_type[g] == mjGEOM_PLANE) continue;
+    // geom_aabb: the box's centre offset and half sizes in the geom's frame; in the world frame
+    // its half size along axis i is sum_j |R_ij| h_j.
+    const mjtNum* aabb = m->geom_aabb + 6 * g;
+    const mjtNum* R = d->geom_xmat + 9 * g;
+    for (int i = 0; i < 3; ++i) {
+      double centre = d->geom_xpos[3 * g + i], half = 0;
+      for (int j = 0; j < 3; ++j) {
+        centre += R[3 * i + j] * aabb[j];
+        half += std::abs(R[3 * i + j]) * aabb[3 + j];
+      }
+      bounds.low[i] = bounds.found ? std::min(bounds.low[i], centre - half) : centre - half;
+      bounds.high[i] = bounds.found ? std::max(bounds.high[i], centre + half) : centre + half;
+    }
+    bounds.found = true;
+  }
+  mj_deleteData(d);
+  return bounds;
+}
+
+void FrameBodies(const mjModel* m, const BodyBounds& bounds, double aspect, mjvCamera* camera) {
+  mjv_defaultFreeCamera(m, camera);
+  if (!bounds.found) return;
+  double radius = 0;  // m, the box's bounding sphere
+  for (int i = 0; i < 3; ++i) {
+    camera->lookat[i] = 0.5 * (bounds.low[i] + bounds.high[i]);
+    radius += 0.25 * (bounds.high[i] - bounds.low[i]) * (bounds.high[i] - bounds.low[i]);
+  }
+  radius = std::max(std::sqrt(radius), 1e-3);  // a point still gets a millimetre's view
+  // The narrower of the vertical field of view (visual/global fovy) and the horizontal one.
+  const double half_fovy = 0.5 * m->vis.global.fovy * mjPI / 180;  // rad
+  const double half_fovx = std::atan(std::tan(half_fovy) * aspect);
+  // A sphere fits a cone of half-angle a from distance r/sin(a); 5 % to spare.
+  camera->distance = 1.05 * radius / std::sin(std::min(half_fovy, half_fovx));
+}
 
 // Owns what it has made, and frees exactly that, on destruction and when the renderer's
 // constructor throws halfway (OSMesaMakeCurrent failing, no offscreen framebuffer): neither the GL
@@ -72,19 +116,26 @@ OffscreenRenderer::OffscreenRenderer(const mjModel* m, const RendererOptions& op
   c.sized_model->vis.quality.shadowsize = std::min(c.sized_model->vis.quality.shadowsize, 1024);
   mjv_makeScene(m, &c.scene, 2000);
   c.scene_made = true;
-  // Text in proportion to the frame: 50 % below 640 pixels wide, 100 % to 1600, 150 % above.
-  const int font = options.width < 640    ? mjFONTSCALE_50
-                   : options.width < 1600 ? mjFONTSCALE_100
-                                          : mjFONTSCALE_150;
-  mjr_makeContext(c.sized_model, &c.render, font);
+  // Text in proportion to the frame (FontScaleFor).
+  mjr_makeContext(c.sized_model, &c.render, FontScaleFor(options.width, options.height));
   c.render_made = true;
+  std::array<int, 256> widths{};
+  std::copy(c.render.charWidth, c.render.charWidth + 127, widths.begin());
+  font_.char_height = c.render.charHeight;
+  font_.width = [widths](const std::string& text) {
+    int width = 0;  // pixels, as MuJoCo's mjr_overlay and mjr_figure add them
+    for (unsigned char ch : text) width += widths[ch];
+    return width;
+  };
   mjr_setBuffer(mjFB_OFFSCREEN, &c.render);
   if (c.render.currentBuffer != mjFB_OFFSCREEN) {
     throw std::runtime_error("MuJoCo's offscreen framebuffer is not available in this GL context");
   }
-  // 3. The camera: a named one, or the free camera looking at the whole model.
+  // 3. The camera: a named one, or the free camera framing the bodies (not the floor plane).
   if (camera_id < 0) {
-    mjv_defaultFreeCamera(m, &c.camera);
+    frame_bodies_ = true;
+    FrameBodies(m, BoundsOfBodies(m), static_cast<double>(options.width) / options.height,
+                &c.camera);
   } else {
     c.camera.type = mjCAMERA_FIXED;
     c.camera.fixedcamid = camera_id;
@@ -95,14 +146,37 @@ OffscreenRenderer::OffscreenRenderer(const mjModel* m, const RendererOptions& op
 
 OffscreenRenderer::~OffscreenRenderer() = default;
 
-void OffscreenRenderer::RenderScene(mjData* d) {
+const mjvCamera& OffscreenRenderer::camera() const { return context_->camera; }
+
+void OffscreenRenderer::RenderScene(mjData* d, const PixelRect& viewport) {
   Context& c = *context_;
+  const mjrRect rect =
+      viewport.width > 0 && viewport.height > 0
+          ? mjrRect{viewport.left, viewport.bottom, viewport.width, viewport.height}
+          : mjrRect{0, 0, options_.width, options_.height};
+  if (frame_bodies_ && rect.width * options_.height != rect.height * options_.width) {
+    FrameBodies(model_, BoundsOfBodies(model_), static_cast<double>(rect.width) / rect.height,
+                &c.camera);
+    frame_bodies_ = false;  // (framed once, for the first viewport; a user's camera stays put)
+  }
+  // The camera first (mjv_updateScene updates it only after the plugins' visualize callbacks).
+  mjv_updateCamera(model_, d, &c.camera, &c.scene);
   mjv_updateScene(model_, d, &c.option, nullptr, &c.camera, mjCAT_ALL, &c.scene);
-  mjr_render({0, 0, options_.width, options_.height}, &c.scene, &c.render);
+  mjr_render(rect, &c.scene, &c.render);
 }
 
-void OffscreenRenderer::DrawFigure(const mjrRect& rect, mjvFigure* figure) {
-  mjr_figure(rect, figure, &context_->render);
+void OffscreenRenderer::DrawFigure(const PixelRect& rect, mjvFigure* figure) {
+  mjr_figure({rect.left, rect.bottom, rect.width, rect.height}, figure, &context_->render);
+}
+
+void OffscreenRenderer::DrawTable(const PixelRect& rect, const std::string& left,
+                                  const std::string& right) {
+  mjr_overlay(mjFONT_NORMAL, mjGRID_TOPLEFT, {rect.left, rect.bottom, rect.width, rect.height},
+              left.c_str(), right.c_str(), &context_->render);
+}
+
+void OffscreenRenderer::DrawRectangle(const PixelRect& rect, float r, float g, float b, float a) {
+  mjr_rectangle({rect.left, rect.bottom, rect.width, rect.height}, r, g, b, a);
 }
 
 void OffscreenRenderer::DrawText(int grid_position, const std::string& left,

@@ -20,7 +20,7 @@ struct RenderOptions {
   double fps = 30;           ///< video frames per second
   double playback = 1.0;     ///< simulated seconds per video second (0.1: ten times slower)
   bool overlays = true;      ///< plots and text
-  std::vector<std::string> overlay_steppers;  ///< whose plots; empty: the first two steppers
+  std::vector<std::string> overlay_steppers;  ///< whose plots; empty: every stepper
   double window = 0.25;                       ///< s of simulated time shown by the plots
 
   bool enabled() const { return !video.empty() || !frames_dir.empty(); }

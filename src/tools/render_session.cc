@@ -1,6 +1,7 @@
 #include "render_session.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
@@ -18,18 +19,21 @@ struct RenderSession::History {
   std::vector<StepperSample> samples;
 };
 
-namespace {
-
-std::string DriveText(const DriveConfig& c) {
+TableText StepperTable(const StepperActuator& stepper, const StepperSample& last,
+                       const OverlayLayout& layout, const FontMetrics& font) {
   std::string damping;
-  if (const HarmonicCompensation* comp = Damping(c.controller)) {
+  if (const HarmonicCompensation* comp = Damping(stepper.config.controller)) {
     for (const DetentHarmonic& h : comp->harmonics) damping += fmt::format(" {}", h.order);
   }
-  return fmt::format("{}, damping{}", ControllerName(c.controller),
-                     damping.empty() ? " none" : damping);
+  return {
+      {FitText(stepper.name, layout.label_width, font), "damping", "cmd", "speed", "load", "lost"},
+      {FitText(ControllerName(stepper.config.controller), layout.value_width, font),
+       FitText(damping.empty() ? "none" : "h" + damping, layout.value_width, font),
+       fmt::format("{:.1f} r/min", RadPerSecToRpm(last.omega_cmd)),
+       fmt::format("{:.1f} r/min", RadPerSecToRpm(last.omega_cmd + last.velocity_error)),
+       fmt::format("{:+.3f} el. rad", last.load_angle),
+       fmt::format("{:+.0f} steps", last.lost_steps + 0.0)}};
 }
-
-}  // namespace
 
 RenderSession::RenderSession(const mjModel* m, const std::vector<StepperActuator>& steppers,
                              const RenderOptions& options)
@@ -37,7 +41,7 @@ RenderSession::RenderSession(const mjModel* m, const std::vector<StepperActuator
   RequireInRange("--fps", Range("fps"), options.fps);
   RequireInRange("--playback", Range("playback"), options.playback);
   if (options.overlay_steppers.empty()) {
-    for (int i = 0; i < static_cast<int>(steppers.size()) && i < 2; ++i) overlay_.push_back(i);
+    for (int i = 0; i < static_cast<int>(steppers.size()); ++i) overlay_.push_back(i);
   } else {
     for (const std::string& name : options.overlay_steppers) {
       const auto it = std::find_if(steppers.begin(), steppers.end(),
@@ -47,7 +51,6 @@ RenderSession::RenderSession(const mjModel* m, const std::vector<StepperActuator
       }
       overlay_.push_back(static_cast<int>(it - steppers.begin()));
     }
-    if (overlay_.size() > 2) throw std::invalid_argument("--overlay: at most two steppers");
   }
   renderer_ = std::make_unique<OffscreenRenderer>(m, options.renderer);
   if (!options.video.empty()) {
@@ -55,6 +58,8 @@ RenderSession::RenderSession(const mjModel* m, const std::vector<StepperActuator
   }
   if (!options.frames_dir.empty()) CheckOutputDirectory(options.frames_dir);
   figure_ = std::make_unique<mjvFigure>();
+  layout_ = LayOutOverlay(renderer_->width(), renderer_->height(),
+                          static_cast<int>(overlay_.size()), renderer_->font());
 }
 
 RenderSession::~RenderSession() = default;
@@ -83,43 +88,57 @@ void RenderSession::Step(double t, const std::vector<StepperSample>& samples, mj
 }
 
 void RenderSession::RenderFrame(double frame_time, mjData* d) {
-  renderer_->RenderScene(d);
   const int w = renderer_->width(), h = renderer_->height();
-  if (options_.overlays) {
-    // Three plots per overlaid stepper, stacked in a column at the left (first) or right (second).
-    const int fw = std::max(160, w / 4), fh = std::max(90, h / 4);
-    for (size_t column = 0; column < overlay_.size(); ++column) {
-      const History& hist = history_[overlay_[column]];
+  if (!options_.overlays) {
+    renderer_->RenderScene(d);
+  } else {
+    // The scene left of the panel, the panel opaque (nothing of the scene under the plots).
+    renderer_->RenderScene(d, layout_.scene);
+    renderer_->DrawRectangle(layout_.panel, 0.12f, 0.12f, 0.14f, 1.0f);
+    const double video_time = frame_ / options_.fps;  // s: pages turn on the video's clock
+    const int page = layout_.PageAt(video_time);
+    const int pages = static_cast<int>(layout_.pages.size());
+    renderer_->DrawTable(layout_.time, fmt::format("t = {:.4f} s", frame_time), "");
+    if (pages > 0) {
+      renderer_->DrawTable(
+          layout_.header,
+          fmt::format("page {}/{}, {:g} s each", page + 1, pages, layout_.page_seconds), "");
+    }
+    for (const StepperSlot& slot : pages > 0 ? layout_.pages[page] : std::vector<StepperSlot>{}) {
+      const int index = overlay_[slot.stepper];
+      const History& hist = history_[index];
+      const TableText table = StepperTable(
+          steppers_[index], hist.samples.empty() ? StepperSample{} : hist.samples.back(), layout_,
+          renderer_->font());
+      renderer_->DrawTable(slot.table, fmt::format("{}", fmt::join(table.labels, "\n")),
+                           fmt::format("{}", fmt::join(table.values, "\n")));
       const auto begin =
           std::lower_bound(hist.time.begin(), hist.time.end(), frame_time - options_.window);
       const auto end = std::upper_bound(hist.time.begin(), hist.time.end(), frame_time);
       const size_t first = begin - hist.time.begin(), last = end - hist.time.begin();
       const size_t stride = std::max<size_t>(1, (last - first) / (mjMAXLINEPNT - 1) + 1);
       struct Plot {
-        const char* title;
         std::vector<std::pair<const char*, double StepperSample::*>> lines;
         double scale;
       };
       const Plot plots[3] = {
-          {"velocity error (r/min)", {{"", &StepperSample::velocity_error}}, 60.0 / kTwoPi},
-          {"phase currents (A)",
-           {{"ia", &StepperSample::current_a}, {"ib", &StepperSample::current_b}},
-           1.0},
-          {"load angle (el. rad)", {{"", &StepperSample::load_angle}}, 1.0}};
+          {{{"", &StepperSample::velocity_error}}, 60.0 / kTwoPi},
+          {{{"ia", &StepperSample::current_a}, {"ib", &StepperSample::current_b}}, 1.0},
+          {{{"", &StepperSample::load_angle}}, 1.0}};
       for (int p = 0; p < 3; ++p) {
         mjvFigure& fig = *figure_;
         mjv_defaultFigure(&fig);
         fig.flg_extend = 1;
         fig.gridsize[0] = 3;
         fig.gridsize[1] = 3;
+        fig.flg_ticklabel[0] = p == 2;  // time ticks under the block's last plot only
         fig.figurergba[3] = 0.6f;
         fig.panergba[3] = 0.6f;
         fig.range[0][0] = frame_time - options_.window;
         fig.range[0][1] = frame_time;
         std::snprintf(fig.xformat, sizeof(fig.xformat), "%%.2f");
         std::snprintf(fig.yformat, sizeof(fig.yformat), "%%.2g");
-        std::snprintf(fig.title, sizeof(fig.title), "%s: %s",
-                      steppers_[overlay_[column]].name.c_str(), plots[p].title);
+        std::snprintf(fig.title, sizeof(fig.title), "%s", kPlotTitles[p]);
         const float colours[2][3] = {{0.95f, 0.35f, 0.2f}, {0.3f, 0.7f, 1.0f}};
         for (size_t l = 0; l < plots[p].lines.size(); ++l) {
           int n = 0;
@@ -133,21 +152,8 @@ void RenderSession::RenderFrame(double frame_time, mjData* d) {
           std::snprintf(fig.linename[l], sizeof(fig.linename[l]), "%s", plots[p].lines[l].first);
         }
         fig.flg_legend = plots[p].lines.size() > 1;
-        const int x = column == 0 ? 0 : w - fw;
-        renderer_->DrawFigure({x, h - (p + 1) * fh, fw, fh}, &fig);
+        renderer_->DrawFigure(slot.plots[p], &fig);
       }
-    }
-    renderer_->DrawText(mjGRID_TOP, fmt::format("t = {:.4f} s", frame_time), "");
-    for (size_t i = 0; i < steppers_.size() && i < 2; ++i) {
-      const StepperActuator& s = steppers_[i];
-      const StepperSample& last =
-          history_[i].samples.empty() ? StepperSample{} : history_[i].samples.back();
-      const std::string labels = fmt::format("{}\ncommand\nspeed\nload angle\nlost steps", s.name);
-      const std::string values = fmt::format(
-          "{}\n{:.1f} r/min\n{:.1f} r/min\n{:+.3f} el. rad\n{:+.0f}", DriveText(s.config),
-          RadPerSecToRpm(last.omega_cmd), RadPerSecToRpm(last.omega_cmd + last.velocity_error),
-          last.load_angle, last.lost_steps + 0.0);
-      renderer_->DrawText(i == 0 ? mjGRID_BOTTOMLEFT : mjGRID_BOTTOMRIGHT, labels, values);
     }
   }
   const std::vector<std::uint8_t>& rgb = renderer_->ReadPixels();

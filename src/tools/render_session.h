@@ -1,8 +1,9 @@
 // Rendering a run as it goes: frames on their own clock (frame k shows simulation time
-// k·playback/fps, whatever the physics timestep), the 3D scene with the plugin's load-angle gauges,
-// per-stepper overlay plots (velocity error, phase currents, load angle over a sliding window that
-// ends at the frame's time) and text (time, commanded speed, drive mode). Frames go to an MP4
-// and/or numbered PNGs.
+// k·playback/fps, whatever the physics timestep), the 3D scene with the plugin's load-angle gauges
+// in the frame's left part, and a side panel (OverlayLayout) with every stepper's text (drive,
+// commanded and actual speed, load angle, lost steps) and plots (velocity error, phase currents,
+// load angle over a sliding window that ends at the frame's time), in pages the video cycles
+// through when they do not all fit. Frames go to an MP4 and/or numbered PNGs.
 #ifndef MJSTEPPER_TOOLS_RENDER_SESSION_H_
 #define MJSTEPPER_TOOLS_RENDER_SESSION_H_
 
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "offscreen_renderer.h"
+#include "overlay_layout.h"
 #include "render_options.h"
 #include "stepper_model.h"
 #include "video_writer.h"
@@ -29,6 +31,11 @@ struct StepperSample {
   double lost_steps = 0;
 };
 
+/// A stepper's table as the overlay draws it (labels, values), its name and drive fitted to the
+/// layout's column widths.
+TableText StepperTable(const StepperActuator& stepper, const StepperSample& last,
+                       const OverlayLayout& layout, const FontMetrics& font);
+
 class RenderSession {
  public:
   /// Throws std::runtime_error / std::invalid_argument with a message for the user.
@@ -41,6 +48,11 @@ class RenderSession {
   void Step(double t, const std::vector<StepperSample>& samples, mjData* d);
   /// Closes the video. Returns the number of frames written.
   long Finish();
+  /// Where the overlays go (OverlayLayout), for this frame size and these steppers.
+  const OverlayLayout& layout() const { return layout_; }
+  /// The steppers with plots, in layout order (indices into the model's steppers).
+  const std::vector<int>& overlaid() const { return overlay_; }
+  const OffscreenRenderer& renderer() const { return *renderer_; }
 
  private:
   struct History;
@@ -54,6 +66,7 @@ class RenderSession {
   std::unique_ptr<OffscreenRenderer> renderer_;
   std::optional<VideoWriter> video_;
   std::unique_ptr<mjvFigure> figure_;
+  OverlayLayout layout_;
   long frame_ = 0;
 };
 

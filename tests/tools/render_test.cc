@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "offscreen_renderer.h"
+#include "overlay_layout.h"
+#include "render_session.h"
 #include "runner.h"
 #include "stepper_model.h"
 
@@ -146,7 +148,8 @@ TEST(Render, FailedConstructionLeaksNothing) {
   EXPECT_LT(after, before + (1 << 20)) << "made: heap grew by " << (after - before) << " bytes";
 }
 
-RunOptions RenderRun(const std::filesystem::path& dir, bool overlays) {
+RunOptions RenderRun(const std::filesystem::path& dir, bool overlays, int width = 320,
+                     int height = 240) {
   RunOptions o;
   o.model = kModel;
   o.duration = 0.1;
@@ -154,7 +157,7 @@ RunOptions RenderRun(const std::filesystem::path& dir, bool overlays) {
   o.progress = false;
   o.render.video = (dir / "run.mp4").string();
   o.render.frames_dir = (dir / "frames").string();
-  o.render.renderer = {.width = 320, .height = 240, .camera = "front"};
+  o.render.renderer = {.width = width, .height = height, .camera = "front"};
   o.render.fps = 50;  // frame k at k·0.02 s: 6 frames for 0.1 s
   o.render.overlays = overlays;
   return o;
@@ -191,18 +194,23 @@ TEST(Render, Mp4DecodesWithExpectedFramesAndSize) {
   EXPECT_FALSE(std::filesystem::exists(dir / "run.mp4.tmp.mp4"));
 }
 
-// The overlay's corner holds plot pixels (the velocity-error line's colour) only with overlays on.
+// The first plot's rectangle (the layout's) holds plot pixels (the velocity-error line's colour)
+// only with overlays on.
 TEST(Render, OverlayRegionHasPlotPixels) {
   std::ostringstream sink;
   const auto on = TempDir("overlay_on"), off = TempDir("overlay_off");
-  tools::Run(RenderRun(on, true), sink);
-  tools::Run(RenderRun(off, false), sink);
-  // Frame 5 (0.1 s): the top-left 160x90 holds the first plot, line colour (242, 89, 51); the
-  // tolerance 30 leaves out the rotor's red marker (230, 51, 26), which is elsewhere anyway.
-  const Frame with = ReadFrameRaw(on / "run.mp4", 5, 320, 240);
-  const Frame without = ReadFrameRaw(off / "run.mp4", 5, 320, 240);
-  EXPECT_GT(Find(with, 242, 89, 51, 30, 0, 0, 160, 90).count, 10);
-  EXPECT_EQ(Find(without, 242, 89, 51, 30, 0, 0, 160, 90).count, 0);
+  tools::Run(RenderRun(on, true, 640, 480), sink);
+  tools::Run(RenderRun(off, false, 640, 480), sink);
+  const StepperModel sm = LoadStepperModel(kModel);
+  OffscreenRenderer renderer(sm.model.get(), {.width = 640, .height = 480, .camera = "front"});
+  const PixelRect plot = LayOutOverlay(640, 480, 1, renderer.font()).pages.at(0).at(0).plots[0];
+  // Frame 5 (0.1 s): the line colour (242, 89, 51); the tolerance 30 leaves out the rotor's red
+  // marker (230, 51, 26), which is not there anyway.
+  const Frame with = ReadFrameRaw(on / "run.mp4", 5, 640, 480);
+  const Frame without = ReadFrameRaw(off / "run.mp4", 5, 640, 480);
+  const int y0 = 480 - plot.top(), y1 = 480 - plot.bottom;  // rows from the top
+  EXPECT_GT(Find(with, 242, 89, 51, 30, plot.left, y0, plot.right(), y1).count, 10);
+  EXPECT_EQ(Find(without, 242, 89, 51, 30, plot.left, y0, plot.right(), y1).count, 0);
 }
 
 // Rendering is deterministic: the same run twice gives byte-identical PNG frames.
@@ -220,6 +228,241 @@ TEST(Render, IdenticalRunsGiveIdenticalFrames) {
     ASSERT_FALSE(da.empty());
     EXPECT_EQ(da, db) << name;
   }
+}
+
+// ---- Layout, gauge side and default camera (issue 19, item 5)
+// ---------------------------------------
+
+const std::string kArm4 = MJSTEPPER_SOURCE_DIR "/tests/tools/models/arm4.xml";
+
+// The layout of the 4-stepper arm at w×h, with the renderer's own font at that size: the panel
+// takes at most a third of the width; on every page no rectangle overlaps another and each lies in
+// the panel; every stepper has its table and three plots on exactly one page; each text fits its
+// box (the table of a stepper at its widest values, measured in the font's own glyph widths), each
+// plot is as wide as its title and at least kMinPlotLines lines high.
+void ExpectLegibleLayout(int w, int h) {
+  const StepperModel sm = LoadStepperModel(kArm4);
+  ASSERT_EQ(sm.steppers.size(), 4u);
+  OffscreenRenderer renderer(sm.model.get(), {.width = w, .height = h, .camera = ""});
+  const FontMetrics& font = renderer.font();
+  ASSERT_GT(font.char_height, 0);
+  const OverlayLayout layout = LayOutOverlay(w, h, 4, font);
+  EXPECT_TRUE(layout.legible);
+  EXPECT_LE(layout.panel.width, w / 3);
+  EXPECT_TRUE(Inside(layout.panel, layout.frame));
+  EXPECT_TRUE(Inside(layout.scene, layout.frame));
+  EXPECT_FALSE(Overlaps(layout.panel, layout.scene));
+  EXPECT_TRUE(Inside(layout.time, layout.scene));
+  EXPECT_TRUE(Inside(layout.header, layout.panel));
+  const PixelRect header_text = TableSize(HeaderTemplate(), font);
+  EXPECT_LE(header_text.width, layout.header.width);
+  EXPECT_LE(header_text.height, layout.header.height);
+  const PixelRect time_text = TableSize(TimeTemplate(), font);
+  EXPECT_LE(time_text.width, layout.time.width);
+  EXPECT_LE(time_text.height, layout.time.height);
+  std::vector<int> seen(4, 0);
+  // The widest values a table shows (a long name and drive are cut to fit, marked "~").
+  StepperActuator wide = sm.steppers[1];
+  wide.name = "a_stepper_with_a_very_long_name";
+  const StepperSample extreme{
+      .omega_cmd = -900, .velocity_error = -30, .load_angle = -3.14159, .lost_steps = -12345};
+  for (const std::vector<StepperSlot>& page : layout.pages) {
+    ASSERT_LE(static_cast<int>(page.size()), layout.steppers_per_page);
+    std::vector<PixelRect> rects = {layout.header};
+    for (const StepperSlot& slot : page) {
+      ASSERT_GE(slot.stepper, 0);
+      ASSERT_LT(slot.stepper, 4);
+      ++seen[slot.stepper];
+      rects.push_back(slot.table);
+      for (const StepperSlot* s : {&slot}) {
+        for (int p = 0; p < 3; ++p) rects.push_back(s->plots[p]);
+      }
+      for (const StepperActuator& stepper : {sm.steppers[slot.stepper], wide}) {
+        const TableText table = StepperTable(stepper, extreme, layout, font);
+        const PixelRect size = TableSize(table, font);
+        EXPECT_LE(size.width, slot.table.width) << stepper.name;
+        EXPECT_LE(size.height, slot.table.height) << stepper.name;
+      }
+      for (int p = 0; p < 3; ++p) {
+        // mjr_figure centres its title and cuts it at the plot's edges: 2 px to spare each side.
+        EXPECT_LE(font.width(kPlotTitles[p]) + 4, slot.plots[p].width) << kPlotTitles[p];
+        EXPECT_GE(slot.plots[p].height, kMinPlotLines * font.char_height) << kPlotTitles[p];
+      }
+    }
+    for (size_t i = 0; i < rects.size(); ++i) {
+      EXPECT_TRUE(Inside(rects[i], layout.panel)) << "rectangle " << i;
+      for (size_t j = i + 1; j < rects.size(); ++j) {
+        EXPECT_FALSE(Overlaps(rects[i], rects[j])) << "rectangles " << i << " and " << j;
+      }
+    }
+  }
+  EXPECT_THAT(seen, ::testing::Each(1));
+}
+
+TEST(RenderLayout, FourSteppersAt640x480) { ExpectLegibleLayout(640, 480); }
+TEST(RenderLayout, FourSteppersAt1920x1080) { ExpectLegibleLayout(1920, 1080); }
+
+// A 1080p frame holds all four steppers' blocks at once; 640x480 pages them, and the page shown
+// turns every page_seconds of video, back to the first after the last.
+TEST(RenderLayout, PagesOnlyWhenTheyDoNotFit) {
+  const FontMetrics font{18, [](const std::string& s) { return 8 * static_cast<int>(s.size()); }};
+  EXPECT_EQ(LayOutOverlay(1920, 1080, 4, font).pages.size(), 1u);
+  const OverlayLayout small = LayOutOverlay(640, 480, 4, font);
+  ASSERT_EQ(small.pages.size(), 4u);
+  EXPECT_EQ(small.PageAt(0), 0);
+  EXPECT_EQ(small.PageAt(small.page_seconds * 1.01), 1);
+  EXPECT_EQ(small.PageAt(small.page_seconds * 4.01), 0);
+}
+
+// A run of the 4-stepper arm at 640x480: every stepper's phase-current plot appears (the ib line's
+// colour, (77, 179, 255), inside the plot's rectangle) on the page the video shows at its frame,
+// and the four pages all come round.
+TEST(RenderLayout, EveryStepperGetsItsPlotsInTheVideo) {
+  const auto dir = TempDir("arm4");
+  RunOptions o;
+  o.model = kArm4;
+  o.ctrl = {{"base", "constant(5rad)"},
+            {"shoulder", "constant(-8rad)"},
+            {"elbow", "constant(6rad)"},
+            {"wrist", "constant(10rad)"}};
+  o.progress = false;
+  o.render.video = (dir / "run.mp4").string();
+  o.render.renderer = {.width = 640, .height = 480, .camera = ""};
+  o.render.fps = 2;          // a page every 3 s of video: every 6 frames
+  o.render.playback = 0.02;  // 0.01 s of simulation a frame
+  o.duration = 0.235;        // 24 frames: four pages
+  std::ostringstream sink;
+  const RunResult r = tools::Run(o, sink);
+  ASSERT_EQ(r.frames, 24);
+  const StepperModel sm = LoadStepperModel(kArm4);
+  OffscreenRenderer renderer(sm.model.get(), {.width = 640, .height = 480, .camera = ""});
+  const OverlayLayout layout = LayOutOverlay(640, 480, 4, renderer.font());
+  ASSERT_EQ(layout.pages.size(), 4u);
+  std::vector<int> shown(4, 0);
+  for (int k = 1; k < 24; k += 6) {  // one frame of each page (frame 0 has no history yet)
+    const Frame f = ReadFrameRaw(dir / "run.mp4", k, 640, 480);
+    for (const StepperSlot& slot : layout.pages[layout.PageAt(k / o.render.fps)]) {
+      const PixelRect& plot = slot.plots[1];
+      // Tolerance 40: the MP4's chroma subsampling blurs a 1-pixel line's colour.
+      const long count =
+          Find(f, 77, 179, 255, 40, plot.left, 480 - plot.top(), plot.right(), 480 - plot.bottom)
+              .count;
+      EXPECT_GT(count, 20) << "stepper " << slot.stepper << " at frame " << k;
+      if (count > 20) ++shown[slot.stepper];
+    }
+  }
+  EXPECT_THAT(shown, ::testing::Each(1));
+}
+
+// A rotor on a hinge along z, no stator, a camera above and one below, the gauge on.
+const char* kGaugeModel =
+    R"(<mujoco><option timestep="1e-4"/><extension><plugin plugin="mjstepper.stepper"/></extension>
+  <worldbody><light pos="0 0 1" dir="0 0 -1"/><light pos="0 0 -1" dir="0 0 1"/>
+  <camera name="top" pos="0 0 0.2" xyaxes="1 0 0 0 1 0"/>
+  <camera name="bottom" pos="0 0 -0.2" xyaxes="1 0 0 0 -1 0"/>
+  <body name="rotor"><joint name="shaft" type="hinge" axis="0 0 1"/>
+  <geom type="cylinder" size="0.02 0.004" rgba="0.7 0.7 0.75 1" mass="0.1"/></body></worldbody>
+  <actuator><plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4"/>
+  </actuator></mujoco>)";
+
+StepperModel LoadGaugeModel() {
+  const auto path = TempDir("gauge") / "gauge.xml";
+  std::ofstream(path) << kGaugeModel;
+  return LoadStepperModel(path.string());
+}
+
+// Geometry: seen from above (elevation -60°) or below (+60°), both gauge arrows start on the
+// camera's side of the rotor's hub (beyond its 4 mm half height along the axis).
+TEST(RenderGauge, ArrowsOnTheCameraSideOfTheRotor) {
+  const StepperModel sm = LoadGaugeModel();
+  const mjModel* m = sm.model.get();
+  DataPtr d(mj_makeData(m));
+  mj_forward(m, d.get());
+  for (const double elevation : {-60.0, 60.0}) {
+    mjvScene scene;
+    mjv_defaultScene(&scene);
+    mjv_makeScene(m, &scene, 100);
+    mjvOption option;
+    mjv_defaultOption(&option);
+    mjvCamera camera;
+    mjv_defaultFreeCamera(m, &camera);
+    camera.lookat[0] = camera.lookat[1] = camera.lookat[2] = 0;
+    camera.distance = 0.3;
+    camera.elevation = elevation;
+    // This frame's camera first, as the renderer does (mjv_updateScene updates it after plugins).
+    mjv_updateCamera(m, d.get(), &camera, &scene);
+    mjv_updateScene(m, d.get(), &option, nullptr, &camera, mjCAT_ALL, &scene);
+    const double side = scene.camera[0].pos[2] > 0 ? 1 : -1;  // camera above: +1
+    int arrows = 0;
+    for (int g = 0; g < scene.ngeom; ++g) {
+      const mjvGeom& geom = scene.geoms[g];
+      if (geom.type != mjGEOM_ARROW || geom.category != mjCAT_DECOR) continue;
+      ++arrows;
+      EXPECT_GT(side * geom.pos[2], 0.004) << "elevation " << elevation;
+    }
+    EXPECT_EQ(arrows, 2);
+    mjv_freeScene(&scene);
+  }
+}
+
+// Pixels: the green command arrow shows as fully from below as from above (the renderer hands the
+// plugin this frame's camera); drawn on the far side, the hub would hide its inner half.
+TEST(RenderGauge, ArrowAsVisibleFromBelowAsFromAbove) {
+  const StepperModel sm = LoadGaugeModel();
+  const mjModel* m = sm.model.get();
+  DataPtr d(mj_makeData(m));
+  mj_forward(m, d.get());
+  const long above = Find(RenderOnce(m, d.get(), "top"), 26, 217, 64, 50).count;
+  const long below = Find(RenderOnce(m, d.get(), "bottom"), 26, 217, 64, 50).count;
+  ASSERT_GT(above, 100);
+  // Mirror views of the same arrows: equal but for shading; the far side shows about half.
+  EXPECT_GT(below, 0.8 * above);
+}
+
+// The default free camera frames the bodies, not the 4 m floor: the box around the arm's geoms,
+// projected, spans at least half the frame's width or height, and lies wholly inside it.
+TEST(RenderCamera, DefaultCameraFramesTheBodies) {
+  const StepperModel sm = LoadStepperModel(kArm4);
+  const mjModel* m = sm.model.get();
+  DataPtr d(mj_makeData(m));
+  mj_forward(m, d.get());
+  const int w = 640, h = 480;
+  OffscreenRenderer renderer(m, {.width = w, .height = h, .camera = ""});
+  mjvCamera camera = renderer.camera();
+  mjvScene scene;
+  mjv_defaultScene(&scene);
+  mjv_makeScene(m, &scene, 10);
+  mjv_updateCamera(m, d.get(), &camera, &scene);
+  const mjvGLCamera& eye = scene.camera[0];
+  const BodyBounds bounds = BoundsOfBodies(m);
+  ASSERT_TRUE(bounds.found);
+  // The floor (z = 0, 4 m wide) is left out; the pedestal (a world geom) too: the box starts at
+  // the turret's bottom, z = 0.2 m.
+  EXPECT_NEAR(bounds.low[2], 0.2, 1e-9);
+  const double tan_y = std::tan(0.5 * m->vis.global.fovy * mjPI / 180), tan_x = tan_y * w / h;
+  double right[3];
+  mju_cross(right, std::array<double, 3>{eye.forward[0], eye.forward[1], eye.forward[2]}.data(),
+            std::array<double, 3>{eye.up[0], eye.up[1], eye.up[2]}.data());
+  double x_low = 1e9, x_high = -1e9, y_low = 1e9, y_high = -1e9;
+  for (int corner = 0; corner < 8; ++corner) {
+    double v[3];
+    for (int i = 0; i < 3; ++i) {
+      v[i] = ((corner >> i) & 1 ? bounds.high[i] : bounds.low[i]) - eye.pos[i];
+    }
+    const double depth = v[0] * eye.forward[0] + v[1] * eye.forward[1] + v[2] * eye.forward[2];
+    ASSERT_GT(depth, 0);
+    const double x = mju_dot3(v, right) / depth / tan_x;  // -1 .. 1 across the frame
+    const double y = (v[0] * eye.up[0] + v[1] * eye.up[1] + v[2] * eye.up[2]) / depth / tan_y;
+    x_low = std::min(x_low, x), x_high = std::max(x_high, x);
+    y_low = std::min(y_low, y), y_high = std::max(y_high, y);
+  }
+  EXPECT_GE(x_low, -1);
+  EXPECT_LE(x_high, 1);
+  EXPECT_GE(y_low, -1);
+  EXPECT_LE(y_high, 1);
+  EXPECT_GE(std::max(x_high - x_low, y_high - y_low) / 2, 0.5)
+      << "x " << x_low << ".." << x_high << ", y " << y_low << ".." << y_high;
+  mjv_freeScene(&scene);
 }
 
 }  // namespace
