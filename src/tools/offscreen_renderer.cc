@@ -40,17 +40,31 @@ BodyBounds BoundsOfBodies(const mjModel* m) {
 void FrameBodies(const mjModel* m, const BodyBounds& bounds, double aspect, mjvCamera* camera) {
   mjv_defaultFreeCamera(m, camera);
   if (!bounds.found) return;
-  double radius = 0;  // m, the box's bounding sphere
-  for (int i = 0; i < 3; ++i) {
-    camera->lookat[i] = 0.5 * (bounds.low[i] + bounds.high[i]);
-    radius += 0.25 * (bounds.high[i] - bounds.low[i]) * (bounds.high[i] - bounds.low[i]);
+  for (int i = 0; i < 3; ++i) camera->lookat[i] = 0.5 * (bounds.low[i] + bounds.high[i]);
+  // The free camera's axes at MuJoCo's default azimuth and elevation (as mjv_updateCamera makes
+  // them): forward f, up u, right r = f × u.
+  const double azimuth = camera->azimuth * mjPI / 180, elevation = camera->elevation * mjPI / 180;
+  const double f[3] = {std::cos(elevation) * std::cos(azimuth),
+                       std::cos(elevation) * std::sin(azimuth), std::sin(elevation)};
+  const double u[3] = {-std::sin(elevation) * std::cos(azimuth),
+                       -std::sin(elevation) * std::sin(azimuth), std::cos(elevation)};
+  double r[3];
+  mju_cross(r, f, u);
+  // The vertical field of view (visual/global fovy) and the horizontal one of this aspect.
+  const double tan_y = std::tan(0.5 * m->vis.global.fovy * mjPI / 180);
+  const double tan_x = tan_y * aspect;
+  // The nearest distance from which every corner of the box is in view: a corner at c (from the
+  // box's centre) is at depth D + c·f, so it needs D >= |c·r|/tan_x − c·f and |c·u|/tan_y − c·f.
+  double distance = 1e-3;  // m: a point still gets a millimetre's view
+  for (int corner = 0; corner < 8; ++corner) {
+    double c[3];
+    for (int i = 0; i < 3; ++i) {
+      c[i] = ((corner >> i) & 1 ? bounds.high[i] : bounds.low[i]) - camera->lookat[i];
+    }
+    distance = std::max({distance, std::abs(mju_dot3(c, r)) / tan_x - mju_dot3(c, f),
+                         std::abs(mju_dot3(c, u)) / tan_y - mju_dot3(c, f)});
   }
-  radius = std::max(std::sqrt(radius), 1e-3);  // a point still gets a millimetre's view
-  // The narrower of the vertical field of view (visual/global fovy) and the horizontal one.
-  const double half_fovy = 0.5 * m->vis.global.fovy * mjPI / 180;  // rad
-  const double half_fovx = std::atan(std::tan(half_fovy) * aspect);
-  // A sphere fits a cone of half-angle a from distance r/sin(a); 5 % to spare.
-  camera->distance = 1.05 * radius / std::sin(std::min(half_fovy, half_fovx));
+  camera->distance = 1.1 * distance;  // 10 % to spare around the bodies
 }
 
 // Owns what it has made, and frees exactly that, on destruction and when the renderer's

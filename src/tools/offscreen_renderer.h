@@ -25,8 +25,8 @@ struct BodyBounds {
 };
 BodyBounds BoundsOfBodies(const mjModel* m);
 /// Points the free camera at the bodies' box (MuJoCo's default azimuth and elevation) from the
-/// distance at which the box's bounding sphere just fits the view of this aspect (width/height).
-/// Without bodies, MuJoCo's default free camera (the whole model's extent).
+/// nearest distance at which all of the box is in a view of this aspect (width/height), 10 % to
+/// spare. Without bodies, MuJoCo's default free camera (the whole model's extent).
 void FrameBodies(const mjModel* m, const BodyBounds& bounds, double aspect, mjvCamera* camera);
 
 class OffscreenRenderer {
