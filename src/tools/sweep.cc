@@ -137,9 +137,9 @@ const StepperActuator& FindTarget(const StepperModel& sm, const std::string& act
   if (target == nullptr) {
     std::string names;
     for (const StepperActuator& s : sm.steppers) names += (names.empty() ? "" : ", ") + s.name;
-    throw std::invalid_argument(fmt::format("--actuator '{}': not a stepper of {} (steppers: {}){}",
-                                            actuator, model, names,
-                                            actuator.empty() ? "; name one with --actuator" : ""));
+    throw std::invalid_argument(
+        fmt::format("--actuator '{}': not a stepper of {} (steppers: {}){}", actuator, model,
+                    names, actuator.empty() ? "; name one with --actuator" : ""));
   }
   return *target;
 }
@@ -193,8 +193,9 @@ std::vector<Point> OverSpeeds(const Options& o, const char* what, std::ostream& 
   check(sm.model.get());
   const StepperActuator& target = FindTarget(sm, o.actuator, o.model);
   std::vector<Point> points(o.speeds.size());
-  ParallelFor(o.speeds.size(), o.threads, o.progress, what, progress,
-              [&](size_t i) { points[i] = run(sm.model.get(), target, o.speeds[i], o); });
+  ParallelFor(o.speeds.size(), o.threads, o.progress, what, progress, [&](size_t i) {
+    points[i] = run(sm.model.get(), target, o.speeds[i], o);
+  });
   return points;
 }
 
@@ -218,9 +219,9 @@ void CheckSweepTiming(const SweepOptions& o, const mjModel* m) {
         fmt::format("sweep: acceleration = {} rad/s²: must be finite and > 0", o.acceleration));
   }
   if (!(o.measure >= kMinMeasuredSteps * m->opt.timestep)) {
-    throw std::invalid_argument(
-        fmt::format("--measure {:g}: must hold at least {} timesteps of the model ({:g} s)",
-                    o.measure, kMinMeasuredSteps, kMinMeasuredSteps * m->opt.timestep));
+    throw std::invalid_argument(fmt::format(
+        "--measure {:g}: must hold at least {} timesteps of the model ({:g} s)", o.measure,
+        kMinMeasuredSteps, kMinMeasuredSteps * m->opt.timestep));
   }
 }
 
@@ -304,11 +305,11 @@ std::vector<MapPoint> Map(const MapOptions& o, std::ostream& progress) {
 
 void WriteMapCsv(const std::string& path, const std::string& parameter,
                  const std::vector<MapPoint>& points) {
-  CsvWriter csv(
-      path,
-      {parameter, "speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
-       "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]", "lost_steps[full steps]"},
-      17);  // every digit, as the sweep's
+  CsvWriter csv(path,
+                {parameter, "speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
+                 "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]",
+                 "lost_steps[full steps]"},
+                17);  // every digit, as the sweep's
   for (const MapPoint& m : points) {
     const SweepPoint& p = m.point;
     const double row[] = {m.value,

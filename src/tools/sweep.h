@@ -57,9 +57,9 @@ struct PullOutPoint {
 
 /// `mjstepper map`: the sweep repeated over values of one load parameter, on all cores.
 struct MapOptions {
-  SweepOptions sweep;          ///< model, stepper, speeds, timing, threads
-  std::string parameter;       ///< "stiffness:JOINT" (N·m/rad or N/m) or "mass:BODY" (kg)
-  std::vector<double> values;  ///< of the parameter
+  SweepOptions sweep;              ///< model, stepper, speeds, timing, threads
+  std::string parameter;           ///< "stiffness:JOINT" (N·m/rad or N/m) or "mass:BODY" (kg)
+  std::vector<double> values;      ///< of the parameter
 };
 
 struct MapPoint {
