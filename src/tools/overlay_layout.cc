@@ -31,6 +31,7 @@ TableText StepperTableTemplate() {
            "+88888 steps"}};
 }
 
+// (One page says "all N steppers", narrower.)
 TableText HeaderTemplate() { return {{"page 88/88, 8 s each"}, {}}; }
 TableText TimeTemplate() { return {{"t = 8888.8888 s"}, {}}; }
 

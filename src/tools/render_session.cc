@@ -100,9 +100,11 @@ void RenderSession::RenderFrame(double frame_time, mjData* d) {
     const int pages = static_cast<int>(layout_.pages.size());
     renderer_->DrawTable(layout_.time, fmt::format("t = {:.4f} s", frame_time), "");
     if (pages > 0) {
-      renderer_->DrawTable(
-          layout_.header,
-          fmt::format("page {}/{}, {:g} s each", page + 1, pages, layout_.page_seconds), "");
+      renderer_->DrawTable(layout_.header,
+                           pages == 1 ? fmt::format("all {} steppers", overlay_.size())
+                                      : fmt::format("page {}/{}, {:g} s each", page + 1, pages,
+                                                    layout_.page_seconds),
+                           "");
     }
     for (const StepperSlot& slot : pages > 0 ? layout_.pages[page] : std::vector<StepperSlot>{}) {
       const int index = overlay_[slot.stepper];
@@ -151,7 +153,9 @@ void RenderSession::RenderFrame(double frame_time, mjData* d) {
           std::copy(colours[l], colours[l] + 3, fig.linergb[l]);
           std::snprintf(fig.linename[l], sizeof(fig.linename[l]), "%s", plots[p].lines[l].first);
         }
-        fig.flg_legend = plots[p].lines.size() > 1;
+        // The legend (ia, ib) needs two lines of the plot area: MuJoCo cuts it to one below that.
+        fig.flg_legend =
+            plots[p].lines.size() > 1 && slot.plots[p].height >= 6 * renderer_->font().char_height;
         renderer_->DrawFigure(slot.plots[p], &fig);
       }
     }
