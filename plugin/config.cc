@@ -152,7 +152,8 @@ constexpr AttributeSpec kAttrTorqueConstantCoefficient{
     "(hybrid steppers), about −0.2 %/K for ferrite. In [−0.002, 0.002]."};
 constexpr AttributeSpec kAttrGauge{
     "gauge", "name", "`on`", "—",
-    "`on`: draw the load-angle gauge on the rotor in every MuJoCo scene (viewer, renders): a "
+    "`on`: draw the load-angle gauge on the rotor in every MuJoCo scene (viewer, renders), just "
+    "beyond the rotor body's geoms along the joint axis on the side the camera looks from: a "
     "long thin green arrow for the commanded electrical angle and a short thick magenta one for "
     "the rotor's; the angle between them is δ, and a magenta arrow sweeping full turns is lost "
     "steps. `off`: draw nothing."};
