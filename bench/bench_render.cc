@@ -1,6 +1,7 @@
 // Frames per second of the headless renderer on models/tsui_rigid.xml at 640x480: with and
-// without overlays, MP4 encoding included (ffmpeg runs on the other core). The physics-only time of
-// the same run is measured too and subtracted. Usage: bench_render [frames].
+// without overlays, MP4 encoding included (ffmpeg runs on the other core); then the 4-stepper arm
+// of the render tests with overlays (the paged side panel). The physics-only time of each run is
+// measured too and subtracted. Usage: bench_render [frames].
 #include <fmt/format.h>
 
 #include <chrono>
@@ -44,6 +45,20 @@ int main(int argc, char** argv) {
                overlays ? "with overlays:" : "without overlays:", frames / seconds,
                1e3 * seconds / frames);
   }
+  // Four steppers (the render tests' arm, default camera): the side panel pages through them.
+  o.model = MJSTEPPER_SOURCE_DIR "/tests/tools/models/arm4.xml";
+  o.ctrl = {{"base", "constant(5rad)"},
+            {"shoulder", "constant(-8rad)"},
+            {"elbow", "constant(6rad)"},
+            {"wrist", "constant(10rad)"}};
+  o.render.video.clear();
+  const double arm_physics = WallSeconds(o);
+  o.render.video = video.string();
+  o.render.renderer = {.width = 640, .height = 480, .camera = ""};
+  const double arm_seconds = WallSeconds(o) - arm_physics;
+  fmt::print("  {:17s} {:6.1f} frames/s  ({:.1f} ms/frame; {} with 4 steppers, physics {:.2f} s)\n",
+             "arm4, overlays:", frames / arm_seconds, 1e3 * arm_seconds / frames, o.model,
+             arm_physics);
   std::filesystem::remove(video);
   return 0;
 }

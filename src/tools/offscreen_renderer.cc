@@ -193,12 +193,6 @@ void OffscreenRenderer::DrawRectangle(const PixelRect& rect, float r, float g, f
   mjr_rectangle({rect.left, rect.bottom, rect.width, rect.height}, r, g, b, a);
 }
 
-void OffscreenRenderer::DrawText(int grid_position, const std::string& left,
-                                 const std::string& right) {
-  mjr_overlay(mjFONT_NORMAL, grid_position, {0, 0, options_.width, options_.height}, left.c_str(),
-              right.c_str(), &context_->render);
-}
-
 const std::vector<std::uint8_t>& OffscreenRenderer::ReadPixels() {
   const int w = options_.width, h = options_.height;
   mjr_readPixels(bottom_up_.data(), nullptr, {0, 0, w, h}, &context_->render);

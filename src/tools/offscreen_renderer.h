@@ -46,8 +46,6 @@ class OffscreenRenderer {
   void RenderScene(mjData* d, const PixelRect& viewport = {});
   /// Draws a figure into a rectangle of the frame (pixels from the bottom left).
   void DrawFigure(const PixelRect& rect, mjvFigure* figure);
-  /// Draws text at one of mjtGridPos's places: two columns, lines separated by '\n'.
-  void DrawText(int grid_position, const std::string& left, const std::string& right);
   /// Draws a two-column table at the top left of a rectangle (mjr_overlay's padding included).
   void DrawTable(const PixelRect& rect, const std::string& left, const std::string& right);
   /// Fills a rectangle with a colour (alpha 1: opaque).

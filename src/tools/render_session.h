@@ -52,7 +52,6 @@ class RenderSession {
   const OverlayLayout& layout() const { return layout_; }
   /// The steppers with plots, in layout order (indices into the model's steppers).
   const std::vector<int>& overlaid() const { return overlay_; }
-  const OffscreenRenderer& renderer() const { return *renderer_; }
 
  private:
   struct History;
