@@ -81,18 +81,20 @@ TimestepVerdict JudgeTimestep(const std::vector<RuleMode>& modes, double timeste
   return v;
 }
 
-std::string TimestepVerdict::Message(const std::string& subject) const {
+std::string TimestepVerdict::Message(const std::string& subject,
+                                     const std::string& separator) const {
   if (failed.empty()) return "";
-  std::string text =
-      fmt::format("{}: timestep {:g} s is too coarse for {} mode(s) (ω·h <= {:g} each):", subject,
-                  timestep, failed.size(), max_omega_h);
+  std::string text = fmt::format(
+      "{}: timestep {:g} s is too coarse for {} mode(s) (ω·h <= {:g} each, with each stepper's T' "
+      "plus its detent's worst case Σ h·Nr·Kdh)",
+      subject, timestep, failed.size(), max_omega_h);
   for (const FailedCheck& c : failed) {
-    text += fmt::format("\n  {}{}: {:.1f} Hz, ω·h = {} > {:g}, its largest timestep {:.3g} s",
-                        c.stepper ? "" : "non-stepper ", c.name, c.frequency,
+    text += fmt::format("{}{}{}: {:.1f} Hz, ω·h = {} > {:g}, its largest timestep {:.3g} s",
+                        separator, c.stepper ? "" : "non-stepper ", c.name, c.frequency,
                         FormatOmegaH(c.omega_h, max_omega_h), max_omega_h,
                         RoundDown3(c.largest_timestep));
   }
-  text += fmt::format("\n  use timestep <= {:.3g} s (passes every mode)", suggestion);
+  text += fmt::format("{}use timestep <= {:.3g} s (passes every mode)", separator, suggestion);
   if (!refuse()) {
     text +=
         "; no stepper takes part in these modes, so the model's own springs decide (not "

@@ -45,9 +45,11 @@ struct TimestepVerdict {
   double suggestion = 0;
   /// A failing stepper mode: a run refuses (unless told to allow it).
   bool refuse() const;
-  /// "" when nothing fails; else one line per failing check and the suggestion, e.g.
-  /// "timestep 0.0002 s is too coarse: ...; use timestep <= 4.99e-05 s". `subject` starts it.
-  std::string Message(const std::string& subject) const;
+  /// "" when nothing fails; else every failing check and the suggestion, each after `separator`
+  /// (a new indented line for a terminal, "; " for MuJoCo's one-line warnings), e.g.
+  /// "M: timestep 0.0002 s is too coarse for 1 mode(s) ...; use timestep <= 4.99e-05 s ...".
+  /// `subject` starts it.
+  std::string Message(const std::string& subject, const std::string& separator = "\n  ") const;
 };
 
 /// Whether h passes a mode of frequency omega (rad/s): h <= max_omega_h/ω, the same division as

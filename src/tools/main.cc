@@ -138,7 +138,7 @@ int Info(const std::string& path) {
         "to T' (ω·h <= {:g}); the largest that does: {:.3g} s\n",
         h, kMaxOmegaTimesStep, verdict.suggestion);
   } else {
-    fmt::print("  {}: {}\n", verdict.refuse() ? "warning" : "note", verdict.Message("the model"));
+    fmt::print("  {}: {}\n", verdict.refuse() ? "warning" : "note", verdict.Message("the model", "\n    "));
   }
   return 0;  // warnings inform; they do not fail the command
 }
