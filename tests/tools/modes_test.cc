@@ -168,7 +168,7 @@ TEST(Modes, RunNamesEveryFailingModeAndThePluginAgrees) {
   RunOptions options = Options(path, 0.01);
   std::ostringstream progress;
   try {
-    Run(options, progress);
+    tools::Run(options, progress);
     ADD_FAILURE() << "a 1 ms step ran";
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()), verdict.Message(path) + ", or pass --allow-coarse");
@@ -181,7 +181,7 @@ TEST(Modes, RunNamesEveryFailingModeAndThePluginAgrees) {
                       HasSubstr("use timestep <= 0.00012 s")));
   }
   options.allow_coarse = true;
-  EXPECT_NO_THROW(Run(options, progress));
+  EXPECT_NO_THROW(tools::Run(options, progress));
   EXPECT_THAT(progress.str(), HasSubstr("warning: " + verdict.Message(path)));
 }
 
@@ -194,10 +194,10 @@ TEST(Modes, PrintedSuggestionRuns) {
   const std::string at = WithTimestep("tsui_coupling", printed);
   EXPECT_TRUE(CheckTimestep(LoadStepperModel(at)).failed.empty());
   std::ostringstream progress;
-  EXPECT_NO_THROW(Run(Options(at, 0.002), progress));
+  EXPECT_NO_THROW(tools::Run(Options(at, 0.002), progress));
   EXPECT_EQ(progress.str(), "");
   const std::string above = WithTimestep("tsui_coupling", "0.000121");
-  EXPECT_THROW(Run(Options(above, 0.002), progress), std::invalid_argument);
+  EXPECT_THROW(tools::Run(Options(above, 0.002), progress), std::invalid_argument);
 }
 
 // A model without steppers (the issue: dm_control's manipulator, refused for its fingertip spring
@@ -212,7 +212,7 @@ TEST(Modes, ModelWithoutSteppersRunsWithItsStiffSpring) {
   std::ofstream(path) << xml;
   std::ostringstream progress;
   RunResult r;
-  ASSERT_NO_THROW(r = Run(Options(path.string(), 0.01), progress));
+  ASSERT_NO_THROW(r = tools::Run(Options(path.string(), 0.01), progress));
   EXPECT_EQ(r.steps, 5);
   EXPECT_THAT(progress.str(), AllOf(HasSubstr("non-stepper mode 1 (joint 'tip' 100 %): 5032.9 Hz"),
                                     HasSubstr("not refused"), Not(HasSubstr("holding stiffness"))));
