@@ -101,6 +101,10 @@ int Info(const std::string& path) {
       fmt::print("    no holding stiffness: something else must hold or turn the shaft\n");
       continue;
     }
+    fmt::print(
+        "    detent's worst-case stiffness Σ h·Nr·Kdh = {:.4g} N·m/rad (added to T' for the "
+        "timestep rule)\n",
+        r.detent_stiffness);
     const std::vector<ResonantSpeed> speeds = ResonantSpeeds(modes, i, s.config);
     fmt::print(
         "    resonant speeds n_h = 60·f/(h·Nr) (rotor r/min, h·Nr·n/60 = f: SPEC §2-3) of the "
@@ -138,7 +142,8 @@ int Info(const std::string& path) {
         "to T' (ω·h <= {:g}); the largest that does: {:.3g} s\n",
         h, kMaxOmegaTimesStep, verdict.suggestion);
   } else {
-    fmt::print("  {}: {}\n", verdict.refuse() ? "warning" : "note", verdict.Message("the model", "\n    "));
+    fmt::print("  {}: {}\n", verdict.refuse() ? "warning" : "note",
+               verdict.Message("the model", "\n    "));
   }
   return 0;  // warnings inform; they do not fail the command
 }
