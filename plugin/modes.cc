@@ -113,7 +113,7 @@ std::vector<Mode> ComputeModes(const mjModel* m, const std::vector<ModalStepper>
                          .transpose();
       }
     }
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jac, Eigen::ComputeFullV);
+    const Eigen::BDCSVD<Eigen::MatrixXd> svd(jac, Eigen::ComputeFullV);  // Jacobi below 16 columns
     // Rank at Eigen's default threshold (ε·max(rows, cols)·σmax): rows that repeat a contact's
     // direction add nothing.
     const int rank = static_cast<int>(svd.rank());
