@@ -12,6 +12,7 @@
 
 #include "config.h"
 #include "core/signals.h"
+#include "modes.h"
 
 namespace mjstepper::plugin {
 namespace {
@@ -89,6 +90,8 @@ Stepper::~Stepper() { --live_steppers; }
 int Stepper::LiveCount() { return live_steppers; }
 
 int Stepper::Init(const mjModel* m, mjData* d, int instance) {
+  // The modes' own mjData (ComputeModes) initialises every instance again: no advice from those.
+  static thread_local bool judging = false;
   try {  // no exception crosses into MuJoCo
     int first = 0;
     while (!IsStepperInstance(m, first)) ++first;
@@ -96,8 +99,30 @@ int Stepper::Init(const mjModel* m, mjData* d, int instance) {
     bool ok = stepper != nullptr;
     if (instance == first) {
       // Every later instance's errors too, after this one's: in model order, all of them.
+      std::vector<ModalStepper> steppers;
+      if (stepper) stepper->AddModalSteppers(m, &steppers);
       for (int later = instance + 1; later < m->nplugin; ++later) {
-        if (IsStepperInstance(m, later) && !Create(m, later, /*advice=*/false)) ok = false;
+        if (!IsStepperInstance(m, later)) continue;
+        const std::unique_ptr<Stepper> other = Create(m, later);
+        if (other) {
+          other->AddModalSteppers(m, &steppers);
+        } else {
+          ok = false;
+        }
+      }
+      // The one timestep rule (core/timestep_rule.h) on the model's modes, as info and run judge
+      // it: warned once per load, with every failing mode and the suggestion.
+      if (ok && !judging) {
+        judging = true;
+        try {
+          const TimestepVerdict verdict = JudgeModelTimestep(m, steppers);
+          judging = false;
+          if (!verdict.failed.empty())
+            mju_warning("%s", verdict.Message("mjstepper", "; ").c_str());
+        } catch (...) {
+          judging = false;
+          throw;
+        }
       }
     }
     if (!ok) return -1;  // (this instance's Stepper, if made, is freed here)
@@ -109,7 +134,17 @@ int Stepper::Init(const mjModel* m, mjData* d, int instance) {
   }
 }
 
-std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool advice) {
+void Stepper::AddModalSteppers(const mjModel* m, std::vector<ModalStepper>* out) const {
+  if (!drive_) return;
+  for (const Actuator& a : actuators_) {
+    out->push_back({.actuator = a.id,
+                    .name = NameOf(m, m->name_actuatoradr[a.id]),
+                    .stiffness = drive_->HoldingStiffness(),
+                    .detent_stiffness = drive_->DetentStiffness()});
+  }
+}
+
+std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
   if (const std::string mismatch = VersionMismatch(mjVERSION_HEADER, mj_version());
       !mismatch.empty()) {
     mju_warning("%s", mismatch.c_str());
@@ -225,19 +260,6 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
               "add armature=\"{:g}\" to the actuator (MuJoCo reflects it through gear²), or set "
               "rotor_inertia=\"0\" if the model carries the rotor itself",
               rotor_inertia, m->actuator_armature[a], rotor_inertia));
-    }
-    // The step the rotor alone needs (a load only lowers ωn): warn, as MuJoCo warns, if coarser.
-    // Stiffness: the drive's T' plus the detent's worst case, Σh h·Nr·Kdh (DetentStiffness).
-    const double inertia = std::max(m->actuator_armature[a], rotor_inertia);
-    const double largest = LargestTimestep(
-        stepper->drive_->HoldingStiffness() + stepper->drive_->DetentStiffness(), inertia);
-    if (advice && inertia > 0 && m->opt.timestep > largest) {
-      mju_warning("%s", fmt::format("mjstepper: {}: timestep {:g} s is too coarse for the rotor "
-                                    "alone (ωn·h = {:.3g} > {}); use timestep <= {:.3g} s",
-                                    actuator, m->opt.timestep,
-                                    m->opt.timestep * kMaxOmegaTimesStep / largest,
-                                    kMaxOmegaTimesStep, largest)
-                            .c_str());
     }
   }
   return stepper;

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "core/drive.h"
+#include "modes.h"
 
 namespace mjstepper::plugin {
 
@@ -40,19 +41,21 @@ inline constexpr double kMaxGear = 1e6;
 class Stepper {
  public:
   /// Parses and checks the instance; on error warns (naming attribute and value) and returns null.
-  /// `advice`: also warn about what loads but is unwise (a coarse timestep); off for the
-  /// look-ahead check of later instances (Init).
-  static std::unique_ptr<Stepper> Create(const mjModel* m, int instance, bool advice = true);
+  static std::unique_ptr<Stepper> Create(const mjModel* m, int instance);
 
   /// The plugin's init: creates the instance into plugin_data; 0, or -1 on error. MuJoCo frees
   /// mjData without destroying the instances made before a failing one, so the model's first
   /// stepper instance checks every later one before any is stored; its errors come first, then
-  /// theirs, in model order (each one warned once).
+  /// theirs, in model order (each one warned once). Then it judges the timestep on the model's
+  /// modes (JudgeModelTimestep, the rule info and run use) and warns once with every failing mode.
   static int Init(const mjModel* m, mjData* d, int instance);
 
   /// Steppers alive in this process (plugin_data that was never destroyed shows up here).
   [[gnu::visibility("default")]] static int LiveCount();
   ~Stepper();
+
+  /// Appends this instance's steppers (actuator, name, T', detent's worst case) for the modes.
+  void AddModalSteppers(const mjModel* m, std::vector<ModalStepper>* out) const;
 
   /// mjtNums of plugin_state for the instance: the drive's layout, per bound actuator.
   static int StateSize(const mjModel* m, int instance);

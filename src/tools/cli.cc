@@ -80,8 +80,9 @@ CommandLine::CommandLine() : app_("mjstepper: stepper motors and their drives on
                    "start from the model's keyframe of this name (the drives start at rest on "
                    "their rotors there)");
   run_->add_flag("--allow-coarse", c.run.allow_coarse,
-                 "run although a stepper's timestep is too coarse for its resonance (ωn·h > 0.2, "
-                 "see info)");
+                 "run although the timestep is too coarse for a mode a stepper takes part in "
+                 "(ω·h > 0.2 with the detent's worst-case stiffness; info lists the modes); a "
+                 "mode without a stepper only warns");
   run_->add_option("--mass", masses_,
                    "BODY=KG: a body's mass for this run, its inertia scaled with it, e.g. "
                    "payload=2 in models/arm3.xml (repeatable; KG in [1e-9, 1e6])");

@@ -74,7 +74,10 @@ int Info(const std::string& path) {
   const mjModel* m = sm.model.get();
   const double h = m->opt.timestep;
   fmt::print("{}: timestep {:g} s, {} stepper(s)\n", path, h, sm.steppers.size());
-  for (const StepperActuator& s : sm.steppers) {
+  // The modes at qpos0 with each stepper's T' (the resonances a speed excites).
+  const std::vector<plugin::Mode> modes = plugin::ComputeModes(m, ModalSteppers(sm));
+  for (size_t i = 0; i < sm.steppers.size(); ++i) {
+    const StepperActuator& s = sm.steppers[i];
     const Drive drive(s.config);
     const MotorParams& p = s.config.motor;
     const StepperResolution r = Resolution(m, s);  // at qpos0, the other joints held
@@ -85,7 +88,7 @@ int Info(const std::string& path) {
         "    Nr {}, R {:g} Ω, L {:g} H, Km {:g} N·m/A, {} detent harmonic(s)\n"
         "    rest current {:g} A, holding stiffness T' = {} = {:.4g} N·m/rad\n"
         "    rotor-side inertia at qpos0 (rotor and load, other joints held) J = {:.4g} kg·m²\n"
-        "      → fn = (1/2π)·√(T'/J) = {:.2f} Hz (S-1..S-7)\n",
+        "      → fn = (1/2π)·√(T'/J) = {:.2f} Hz with the other joints held (S-1..S-7)\n",
         s.name, ControllerName(s.config.controller),
         s.config.input == InputMode::kPosition   ? "position (ctrl in rad)"
         : s.config.input == InputMode::kVelocity ? "velocity (ctrl in rad/s)"
@@ -99,32 +102,48 @@ int Info(const std::string& path) {
       continue;
     }
     fmt::print(
-        "    largest timestep that resolves it: {:.3g} s (ωn·h <= {}, with the detent's worst-case "
-        "stiffness Σ h·Nr·Kdh = {:.4g} N·m/rad added to T'); the model's: {:g} s\n",
-        r.largest_timestep, kMaxOmegaTimesStep, r.detent_stiffness, h);
-    for (const DetentHarmonic& dh : p.detent) {
-      fmt::print("    detent h = {}: resonance at {:.1f} r/min (h·Nr·n/60 = fn)\n", dh.order,
-                 60.0 * fn / (dh.order * p.rotor_teeth));
-    }
-    if (h > r.largest_timestep) {
-      fmt::print(
-          "    warning: timestep {:g} s is too coarse for this stepper: ωn·h = {:.3f} > {} (T' and "
-          "the detent); use timestep <= {:.3g} s\n",
-          h, kMaxOmegaTimesStep * h / r.largest_timestep, kMaxOmegaTimesStep, r.largest_timestep);
-    }
-  }
-  const double highest = HighestMode(m, sm.steppers);  // rad/s
-  if (highest > 0) {
+        "    detent's worst-case stiffness Σ h·Nr·Kdh = {:.4g} N·m/rad (added to T' for the "
+        "timestep rule)\n",
+        r.detent_stiffness);
+    const std::vector<ResonantSpeed> speeds = ResonantSpeeds(modes, i, s.config);
     fmt::print(
-        "  model: highest natural frequency (joint springs and the steppers' T', M at qpos0) "
-        "{:.1f} Hz: largest timestep {:.3g} s\n",
-        highest / kTwoPi, kMaxOmegaTimesStep / highest);
-    if (highest * h > kMaxOmegaTimesStep) {
-      fmt::print(
-          "  warning: timestep {:g} s is too coarse for the model's highest mode: ωn·h = "
-          "{:.3f} > {}\n",
-          h, highest * h, kMaxOmegaTimesStep);
+        "    resonant speeds n_h = 60·f/(h·Nr) (rotor r/min, h·Nr·n/60 = f: SPEC §2-3) of the "
+        "modes it takes part in (>= {:g} % of the mode's potential energy in its T'):\n",
+        100 * plugin::kMinParticipation);
+    for (size_t k = 0; k < speeds.size();) {
+      std::string line =
+          fmt::format("      mode {} at {:.1f} Hz ({:.0f} % in its T'):", speeds[k].mode + 1,
+                      speeds[k].frequency, 100 * speeds[k].participation);
+      const int mode = speeds[k].mode;
+      for (; k < speeds.size() && speeds[k].mode == mode; ++k) {
+        line += fmt::format(" h = {} {:.1f} r/min;", speeds[k].order, speeds[k].speed);
+      }
+      line.back() = '\n';
+      fmt::print("{}", line);
     }
+    if (speeds.empty()) fmt::print("      none\n");
+  }
+  fmt::print(
+      "  model: {} mode(s) at qpos0 (M; joint and tendon springs; the steppers' T'; equalities, "
+      "limits and contacts active there held):\n",
+      modes.size());
+  for (size_t k = 0; k < modes.size(); ++k) {
+    fmt::print("    mode {} at {:.2f} Hz: {}{}\n", k + 1, modes[k].omega / kTwoPi,
+               modes[k].stepper() ? "" : "non-stepper mode, ", modes[k].springs);
+  }
+  // The one timestep rule, as the plugin's load warning and run judge it.
+  const TimestepVerdict verdict = CheckTimestep(sm);
+  if (std::isinf(verdict.largest_timestep)) {
+    fmt::print("  timestep {:g} s: no mode to resolve (no spring holds the model)\n", h);
+  } else if (verdict.failed.empty()) {
+    fmt::print(
+        "  timestep {:g} s passes every mode with the detents' worst-case stiffness Σ h·Nr·Kdh "
+        "added "
+        "to T' (ω·h <= {:g}); the largest that does: {:.3g} s\n",
+        h, kMaxOmegaTimesStep, verdict.suggestion);
+  } else {
+    fmt::print("  {}: {}\n", verdict.refuse() ? "warning" : "note",
+               verdict.Message("the model", "\n    "));
   }
   return 0;  // warnings inform; they do not fail the command
 }

@@ -28,33 +28,9 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   for (const auto& [name, torque] : options.loads) SetLoadTorque(sm.model.get(), name, torque);
   for (const auto& [name, mass] : options.masses) SetBodyMass(sm.model.get(), name, mass);
   const mjModel* m = sm.model.get();
-  for (const StepperActuator& s : sm.steppers) {
-    const StepperResolution r = Resolution(m, s);
-    if (m->opt.timestep > r.largest_timestep && !options.allow_coarse) {
-      throw std::invalid_argument(fmt::format(
-          "{}: timestep {:g} s is too coarse for stepper '{}': ωn = {:.4g} rad/s with the inertia "
-          "it moves (J = {:.4g} kg·m², T' = {:.4g} N·m/rad, the detent's worst case {:.4g} "
-          "N·m/rad), ωn·h = {:.3g} > {}, so its resonance and steps would be wrong; use timestep "
-          "<= {:.3g} s, or pass --allow-coarse",
-          options.model, m->opt.timestep, s.name, kMaxOmegaTimesStep / r.largest_timestep,
-          r.inertia, r.stiffness, r.detent_stiffness,
-          kMaxOmegaTimesStep * m->opt.timestep / r.largest_timestep, kMaxOmegaTimesStep,
-          r.largest_timestep));
-    }
-  }
-  if (const double highest = HighestMode(m, sm.steppers);
-      highest * m->opt.timestep > kMaxOmegaTimesStep && !options.allow_coarse) {
-    throw std::invalid_argument(fmt::format(
-        "{}: timestep {:g} s is too coarse for the model's highest natural frequency {:.1f} Hz "
-        "(joint springs and the steppers' holding stiffness): ωn·h = {:.3g} > {}; use timestep "
-        "<= {:.3g} s, or pass --allow-coarse",
-        options.model, m->opt.timestep, highest / kTwoPi, highest * m->opt.timestep,
-        kMaxOmegaTimesStep, kMaxOmegaTimesStep / highest));
-  }
-  DataPtr data(mj_makeData(m));
-  mjData* d = data.get();
+  int key = -1;
   if (!options.keyframe.empty()) {
-    const int key = mj_name2id(m, mjOBJ_KEY, options.keyframe.c_str());
+    key = mj_name2id(m, mjOBJ_KEY, options.keyframe.c_str());
     if (key < 0) {
       std::string names;
       for (int k = 0; k < m->nkey; ++k) {
@@ -65,6 +41,20 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
                                               options.keyframe, options.model,
                                               names.empty() ? "it has none" : names));
     }
+  }
+  // The one timestep rule, on the modes where the run starts (qpos0 or the keyframe): a stepper
+  // mode too fast for the step refuses the run (every failing mode named, and the largest step
+  // that passes them all); a mode no stepper takes part in only warns (the model's own springs).
+  if (const TimestepVerdict verdict = CheckTimestep(sm, key); !verdict.failed.empty()) {
+    const std::string message = verdict.Message(options.model);
+    if (verdict.refuse() && !options.allow_coarse) {
+      throw std::invalid_argument(message + ", or pass --allow-coarse");
+    }
+    fmt::print(progress, "warning: {}\n", message);
+  }
+  DataPtr data(mj_makeData(m));
+  mjData* d = data.get();
+  if (key >= 0) {
     // qpos, qvel, act, ctrl and time from the keyframe; the drives then start at rest on their
     // rotors there (plugin state is not in keyframes: SPEC §6).
     mj_resetDataKeyframe(m, d, key);

@@ -21,7 +21,7 @@ struct RunOptions {
   bool progress = true;                     ///< progress line on stderr for runs over ~2 s
   std::vector<ConfigOverride> overrides;    ///< e.g. shaft.damping=all
   std::map<std::string, double> loads;      ///< load actuator name → τl, N·m (SetLoadTorque)
-  bool allow_coarse = false;                ///< run although a stepper's ωn·h > 0.2
+  bool allow_coarse = false;                ///< run although a stepper mode's ω·h > 0.2
   std::string keyframe;                     ///< start from this keyframe; empty: qpos0
   std::map<std::string, double> masses;     ///< body name → mass, kg (SetBodyMass)
   bool keep_traces = false;                 ///< fill RunResult::traces (for studies and tests)

@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -16,6 +15,7 @@
 #include <vector>
 
 #include "config.h"
+#include "core/units.h"
 #include "stepper.h"
 
 namespace mjstepper::tools {
@@ -221,42 +221,51 @@ StepperResolution Resolution(const mjModel* m, const StepperActuator& s) {
   r.detent_stiffness = drive.DetentStiffness();
   r.inertia = ReflectedInertia(m, s.actuator);
   r.omega_n = std::sqrt(r.stiffness / r.inertia);
-  r.largest_timestep = LargestTimestep(r.stiffness + r.detent_stiffness, r.inertia);
   return r;
 }
 
-double HighestMode(const mjModel* m, const std::vector<StepperActuator>& steppers) {
-  const int nv = m->nv;
-  if (nv == 0) return 0;
-  DataPtr d(mj_makeData(m));
-  mj_forward(m, d.get());
-  std::vector<mjtNum> dense(nv * nv);
-  mj_fullM(m, d.get(), dense.data());
-  const Eigen::MatrixXd mass = Eigen::Map<Eigen::MatrixXd>(dense.data(), nv, nv);  // symmetric
-  Eigen::MatrixXd stiffness = Eigen::MatrixXd::Zero(nv, nv);
-  for (int j = 0; j < m->njnt; ++j) {
-    if (m->jnt_type[j] == mjJNT_HINGE || m->jnt_type[j] == mjJNT_SLIDE) {
-      stiffness(m->jnt_dofadr[j], m->jnt_dofadr[j]) += m->jnt_stiffness[j];
+std::vector<plugin::ModalStepper> ModalSteppers(const StepperModel& sm) {
+  std::vector<plugin::ModalStepper> out;
+  for (const StepperActuator& s : sm.steppers) {
+    const Drive drive(s.config);
+    out.push_back({.actuator = s.actuator,
+                   .name = s.name,
+                   .stiffness = drive.HoldingStiffness(),
+                   .detent_stiffness = drive.DetentStiffness()});
+  }
+  return out;
+}
+
+TimestepVerdict CheckTimestep(const StepperModel& sm, int key) {
+  return plugin::JudgeModelTimestep(sm.model.get(), ModalSteppers(sm), key);
+}
+
+std::vector<int> ExcitationOrders(const DriveConfig& c) {
+  std::vector<int> orders;
+  for (const DetentHarmonic& h : c.motor.detent) {
+    if (std::find(orders.begin(), orders.end(), h.order) == orders.end()) orders.push_back(h.order);
+  }
+  if (orders.empty()) orders = {1, 2, 4};
+  std::sort(orders.begin(), orders.end());
+  return orders;
+}
+
+std::vector<ResonantSpeed> ResonantSpeeds(const std::vector<plugin::Mode>& modes, size_t index,
+                                          const DriveConfig& c) {
+  std::vector<ResonantSpeed> out;
+  for (size_t k = 0; k < modes.size(); ++k) {
+    const double share = modes[k].participation.at(index);
+    if (share < plugin::kMinParticipation) continue;
+    const double f = modes[k].omega / kTwoPi;  // Hz
+    for (int h : ExcitationOrders(c)) {
+      out.push_back({.mode = static_cast<int>(k),
+                     .frequency = f,
+                     .participation = share,
+                     .order = h,
+                     .speed = 60.0 * f / (h * c.motor.rotor_teeth)});  // SPEC §2-3
     }
   }
-  // Fixed tendons (a belt, a cable): k·c·cᵀ, c the tendon's joint coefficients.
-  for (int t = 0; t < m->ntendon; ++t) {
-    if (!(m->tendon_stiffness[t] > 0)) continue;
-    Eigen::VectorXd c = Eigen::VectorXd::Zero(nv);
-    for (int w = m->tendon_adr[t]; w < m->tendon_adr[t] + m->tendon_num[t]; ++w) {
-      const int joint = m->wrap_objid[w];
-      if (m->wrap_type[w] == mjWRAP_JOINT && joint >= 0) c(m->jnt_dofadr[joint]) += m->wrap_prm[w];
-    }
-    stiffness += m->tendon_stiffness[t] * c * c.transpose();
-  }
-  for (const StepperActuator& s : steppers) {
-    const int dof = m->jnt_dofadr[m->actuator_trnid[2 * s.actuator]];
-    const double gear = Gear(m, s);
-    stiffness(dof, dof) += Drive(s.config).HoldingStiffness() * gear * gear;
-  }
-  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> solver(stiffness, mass,
-                                                                         Eigen::EigenvaluesOnly);
-  return std::sqrt(std::max(0.0, solver.eigenvalues().maxCoeff()));
+  return out;
 }
 
 double ReflectedInertia(const mjModel* m, int actuator) {

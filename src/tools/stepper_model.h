@@ -12,6 +12,8 @@
 
 #include "config_overrides.h"
 #include "core/drive.h"
+#include "core/timestep_rule.h"
+#include "modes.h"
 
 namespace mjstepper::tools {
 
@@ -73,24 +75,42 @@ void SetLoadTorque(mjModel* m, const std::string& name, double torque);
 /// finite and > 0.
 void SetBodyMass(mjModel* m, const std::string& name, double mass);
 
-/// What a stepper's holding resonance asks of the timestep, with the inertia it actually moves.
+/// A stepper's holding resonance with the other joints held (the rigid case, T(1)).
 struct StepperResolution {
   double stiffness = 0;         ///< T', N·m/rad (Drive::HoldingStiffness)
   double detent_stiffness = 0;  ///< Σh h·Nr·Kdh, N·m/rad: the detent's worst case
   double inertia = 0;           ///< rotor-side, kg·m² (ReflectedInertia)
   double omega_n = 0;           ///< √(T'/J), rad/s: the holding resonance (T(1))
-  /// s, kMaxOmegaTimesStep·√(J/(T' + detent_stiffness)): the detent's stiffness adds to T' where
-  /// both peak (infinite without stiffness)
-  double largest_timestep = 0;
 };
 StepperResolution Resolution(const mjModel* m, const StepperActuator& s);
 
-/// The model's highest natural frequency, rad/s, linearised at qpos0: the generalised eigenvalues
-/// of K·v = ω²·M·v, K holding the joints' springs, the fixed tendons' springs (a belt: k·c·cᵀ)
-/// and each stepper's holding stiffness T'·gear² on its dof (contacts and constraints left out).
-/// A compliant coupling's stiff mode lies above either part's own frequency, so this, not a
-/// stepper's ωn alone, sets the step.
-double HighestMode(const mjModel* m, const std::vector<StepperActuator>& steppers);
+/// The steppers as the modes see them (plugin/modes.h): actuator, name, T' and the detent's
+/// worst-case stiffness, in the model's order.
+std::vector<plugin::ModalStepper> ModalSteppers(const StepperModel& sm);
+
+/// The one timestep rule (core/timestep_rule.h) on the model's modes at qpos0 or keyframe `key`,
+/// as the plugin's load warning judges it.
+TimestepVerdict CheckTimestep(const StepperModel& sm, int key = -1);
+
+/// One resonant speed of a stepper: detent (or step) harmonic h of its motor excites mode `mode`
+/// at rotor speed n_h = 60·f/(h·Nr) r/min (SPEC §2-3: h·Nr·n/60 = f).
+struct ResonantSpeed {
+  int mode = 0;              ///< index in the modes, 0 = the slowest
+  double frequency = 0;      ///< Hz
+  double participation = 0;  ///< the stepper's share of the mode's potential energy
+  int order = 0;             ///< h
+  double speed = 0;          ///< r/min of the rotor
+};
+
+/// The harmonic orders whose resonant speeds `info` lists: the motor's detent orders, or Tsui's h
+/// = 1, 2, 4 (S-5) when it lists none (the full step excites h = 4: four per electrical cycle).
+std::vector<int> ExcitationOrders(const DriveConfig& c);
+
+/// Every resonant speed of stepper `index` (in ModalSteppers' order): for each mode it takes part
+/// in (participation >= plugin::kMinParticipation), each order of ExcitationOrders; by mode, then
+/// by order.
+std::vector<ResonantSpeed> ResonantSpeeds(const std::vector<plugin::Mode>& modes, size_t index,
+                                          const DriveConfig& c);
 
 /// Rotor-side inertia seen by the actuator at qpos0, kg·m²: M[dof, dof] / gear² (armature
 /// included).

@@ -307,10 +307,9 @@ TEST(StepperPlugin, StaticFrictionSticksBelowFsAndSlipsAbove) {
 // rotor needs to run from the unstable equilibrium δ = π/2 to the counting threshold 5π/4 (a few
 // ms at fn = 141 Hz: < 0.5 %), and the PI loop's current error at that speed (< 1 %).
 TEST(StepperPlugin, HoldingRotorSlipsAtPullOutAndCountsEachCycle) {
-  const std::string actuator =
-      TsuiActuator("m1", "j1",
-                   Config("input", "position") + Config("detent", "none") +
-                       Config("hold_current", "1.9"));
+  const std::string actuator = TsuiActuator(
+      "m1", "j1",
+      Config("input", "position") + Config("detent", "none") + Config("hold_current", "1.9"));
   const std::string sensor =
       R"(<plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/>)";
   const ModelPtr m = LoadModel(RotorModel(actuator, "", sensor));
@@ -345,9 +344,8 @@ TEST(StepperPlugin, HoldingRotorSlipsAtPullOutAndCountsEachCycle) {
 // The preset's rotor inertia must reach the model: without armature the load fails naming the
 // exact value to add; rotor_inertia="0" says the model carries the rotor itself.
 TEST(StepperPlugin, MissingRotorInertiaFailsNamingTheArmature) {
-  const std::string bare =
-      R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" gear="3">)" +
-      Config("input", "velocity");
+  const std::string bare = R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" gear="3">)" +
+                           Config("input", "velocity");
   std::string error;
   EXPECT_FALSE(LoadModel(RotorModel(bare + "</plugin>"), &error));
   EXPECT_THAT(error, AllOf(HasSubstr("actuator 'm1'"), HasSubstr("J = 3.6e-05 kg·m²"),
@@ -507,8 +505,9 @@ class CapturedWarnings {
 
 std::vector<std::string>* captured_warnings = nullptr;
 
-// At a step too coarse for the rotor alone, loading warns through mju_warning, naming the step
-// and the largest one that resolves the resonance; at the shipped step it is silent.
+// At a step too coarse for the stepper's mode, loading warns through mju_warning (the timestep
+// rule on the model's modes, as info and run judge it), naming the step, the mode and the largest
+// step that resolves it; at the shipped step it is silent.
 TEST(StepperPlugin, CoarseTimestepWarnsAtLoad) {
   std::vector<std::string> warnings;
   captured_warnings = &warnings;
@@ -525,7 +524,7 @@ TEST(StepperPlugin, CoarseTimestepWarnsAtLoad) {
   EXPECT_EQ(count[0], 0u);
   ASSERT_GT(count[1], 0u);
   for (const std::string& w : warnings) {
-    EXPECT_THAT(w, AllOf(HasSubstr("actuator 'm1'"), HasSubstr("timestep 0.001 s"),
+    EXPECT_THAT(w, AllOf(HasSubstr("mode 1 (stepper 'm1' 100 %)"), HasSubstr("timestep 0.001 s"),
                          HasSubstr("use timestep <= 0.000213 s")));
   }
 }
@@ -533,8 +532,9 @@ TEST(StepperPlugin, CoarseTimestepWarnsAtLoad) {
 // Issue 16: a detent of 1e12 N·m (harmonic 4) holds the rotor far more stiffly than the drive does,
 // and loaded without a word while MuJoCo then reset every step. The timestep check now adds the
 // detent's worst-case stiffness Σh h·Nr·Kdh = 4·50·1e12 N·m/rad to T' = 28.5 N·m/rad: at J =
-// 3.6e-5 kg·m², ωn = 2.36e9 rad/s and the largest step 0.2/ωn = 8.49e-11 s. The shipped detent
-// (Σ = 3.15 N·m/rad) stays silent at 50 µs.
+// 3.6e-5 kg·m² (and the rotor body's 1e-9), ωn = 2.36e9 rad/s and the largest step 0.2/ωn =
+// 8.4855e-11 s, suggested rounded down: 8.48e-11 s. The shipped detent (Σ = 3.15 N·m/rad) stays
+// silent at 50 µs.
 TEST(StepperPlugin, StiffDetentWarnsAtLoad) {
   CapturedWarnings warnings;
   const ModelPtr m = LoadModel(RotorModel(
@@ -542,8 +542,8 @@ TEST(StepperPlugin, StiffDetentWarnsAtLoad) {
   ASSERT_TRUE(m);
   ASSERT_FALSE(warnings.ours().empty());
   EXPECT_THAT(warnings.ours()[0],
-              AllOf(HasSubstr("actuator 'm1'"), HasSubstr("timestep 5e-05 s is too coarse"),
-                    HasSubstr("use timestep <= 8.49e-11 s")));
+              AllOf(HasSubstr("stepper 'm1'"), HasSubstr("timestep 5e-05 s is too coarse"),
+                    HasSubstr("use timestep <= 8.48e-11 s")));
   const size_t before = warnings.ours().size();
   ASSERT_TRUE(LoadModel(RotorModel(TsuiActuator("m1", "j1", Config("input", "velocity")))));
   EXPECT_EQ(warnings.ours().size(), before);

@@ -212,19 +212,21 @@ TEST(Runner, LoadSetsTheConstantLoadTorque) {
 }
 
 // info on the compliant coupling: the stepper's own frequency with the load held rigidly
-// (√(T'/(J_r + J_l)) = 81.76 Hz) and the model's highest mode, the two-mass closed form's fast
-// one (260.0 Hz for T' = 28.5, k = 50, J_r = 0.36e-4, J_l = 0.72e-4), which sets the step.
+// (√(T'/(J_r + J_l)) = 81.76 Hz) and the model's modes, the two-mass closed form's (72.2 and
+// 260.0 Hz for T' = 28.5, k = 50, J_r = 0.36e-4, J_l = 0.72e-4); the fast one, with the detent's
+// worst case added to T' (263.4 Hz), sets the step: 0.2/(2π·263.4) = 0.000121 s, rounded down.
 TEST(Runner, InfoGivesTheTwoMassModeThatSetsTheStep) {
   const Result r = RunCli("info " MJSTEPPER_SOURCE_DIR "/models/tsui_coupling.xml");
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_THAT(r.output, AllOf(HasSubstr("81.76 Hz"), HasSubstr("highest natural frequency"),
-                              HasSubstr("260.0 Hz: largest timestep 0.000122 s")));
+  EXPECT_THAT(r.output, AllOf(HasSubstr("81.76 Hz"), HasSubstr("mode 1 at 72.23 Hz"),
+                              HasSubstr("mode 2 at 260.01 Hz"),
+                              HasSubstr("the largest that does: 0.00012 s")));
   // The belt axis: the belt is a tendon spring, k·c·cᵀ with c = (−r, 1); the closed form of rotor
   // (T', J_r) and carriage (m) on k gives 31.4 and 143.7 Hz.
   const Result belt = RunCli("info " MJSTEPPER_SOURCE_DIR "/models/belt_axis.xml");
   ASSERT_EQ(belt.status, 0) << belt.output;
-  EXPECT_THAT(belt.output, HasSubstr("highest natural frequency (joint springs and the steppers' "
-                                     "T', M at qpos0) 143.7 Hz"));
+  EXPECT_THAT(belt.output,
+              AllOf(HasSubstr("mode 1 at 31.37 Hz"), HasSubstr("mode 2 at 143.71 Hz")));
 }
 
 TEST(Runner, InfoGivesNaturalFrequencyAndResonantSpeeds) {
@@ -260,8 +262,8 @@ TEST(Runner, InfoGivesTheDriverChipsTableStallGuardAndHeat) {
 }
 
 // A timestep too coarse for a stepper's holding resonance (ωn·h > 0.2 with the inertia it moves):
-// info says so and names the largest step; the plugin warns once at load (for the rotor alone,
-// through MuJoCo's warning mechanism); run refuses to start unless given --allow-coarse.
+// info says so and names the largest step; the plugin warns once at load, with the same rule
+// (core/timestep_rule.h); run refuses to start unless given --allow-coarse.
 TEST(Runner, CoarseTimestepIsFoundAndEnforced) {
   std::string xml = ModelText();
   xml.replace(xml.find("timestep=\"5e-5\""), 15, "timestep=\"1e-3\"");
@@ -269,21 +271,39 @@ TEST(Runner, CoarseTimestepIsFoundAndEnforced) {
   std::ofstream(path) << xml;
   Result r = RunCli("info " + path.string());
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_THAT(r.output, AllOf(HasSubstr("warning"), HasSubstr("too coarse"), HasSubstr("0.001"),
-                              HasSubstr("largest timestep that resolves it: 0.000213 s")));
-  // The plugin's own warning (rotor alone: ωn = √((28.5 + 3.15)/3.6e-5) = 938 rad/s with the
-  // detent's worst case, ωn·h = 0.94), once.
-  const std::string plugin_warning = "timestep 0.001 s is too coarse for the rotor alone";
+  // ωn = √((28.5 + 3.15)/3.6e-5) = 938 rad/s with the detent's worst case, ωn·h = 0.94.
+  EXPECT_THAT(r.output, AllOf(HasSubstr("warning: the model: timestep 0.001 s is too coarse"),
+                              HasSubstr("mode 1 (stepper 'shaft' 100 %): 149.2 Hz, ω·h = 0.938"),
+                              HasSubstr("use timestep <= 0.000213 s")));
+  // The plugin's own warning, once, on one line.
+  const std::string plugin_warning =
+      "warning: mjstepper: timestep 0.001 s is too coarse for 1 mode(s)";
   EXPECT_THAT(r.output, HasSubstr(plugin_warning));
   EXPECT_EQ(r.output.find(plugin_warning), r.output.rfind(plugin_warning)) << r.output;
 
   r = RunCli("run " + path.string() + " --duration 0.05 --quiet");
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.output,
-              AllOf(HasSubstr("too coarse for stepper 'shaft'"),
+              AllOf(HasSubstr("mode 1 (stepper 'shaft' 100 %): 149.2 Hz"),
                     HasSubstr("use timestep <= 0.000213 s"), HasSubstr("--allow-coarse")));
   r = RunCli("run " + path.string() + " --duration 0.05 --quiet --allow-coarse");
   EXPECT_EQ(r.status, 0) << r.output;
+}
+
+// info lists, per stepper, the resonant speeds of every mode it takes part in: the coupling's
+// slow mode (the one the rotor slipped at in the issue) and the belt mode, not only the rigid
+// joint's.
+TEST(Runner, InfoListsTheResonantSpeedsOfEveryMode) {
+  Result r = RunCli("info " + std::string(MJSTEPPER_SOURCE_DIR) + "/models/tsui_coupling.xml");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, AllOf(HasSubstr("mode 1 at 72.2 Hz (76 % in its T'): h = 1 86.7 r/min"),
+                              HasSubstr("mode 2 at 260.0 Hz (24 % in its T'): h = 1 312.0 r/min"),
+                              HasSubstr("timestep 5e-05 s passes every mode")));
+  r = RunCli("info " + std::string(MJSTEPPER_SOURCE_DIR) + "/models/belt_axis.xml");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, AllOf(HasSubstr("mode 1 at 31.4 Hz (3 % in its T'): h = 1 37.6 r/min"),
+                              HasSubstr("mode 1 at 31.37 Hz: tendon 'belt' 97 %, stepper 'shaft' "
+                                        "3 %")));
 }
 
 // A model that blows up: a joint spring of 1e9 N·m/rad on the rotor under explicit Euler (ωn·h

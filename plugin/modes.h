@@ -1,0 +1,64 @@
+// The model's modes, linearised at qpos0 or a keyframe (issue 19): the generalised eigenproblem
+// K·v = ω²·M·v with M from mj_fullM, K = Σ k·a·aᵀ over the model's springs (hinge and slide joint
+// stiffness, tendon stiffness along the tendon's Jacobian) and each stepper's holding stiffness T'
+// along its actuator's moment row (which holds the gear: joint and tendon transmissions alike),
+// in the null space of the equality constraints, joint and tendon limits and contacts active
+// there (held). Gravity's own stiffness, dof and tendon friction and ball or free joints' springs
+// are left out; rigid-body modes (ω = 0) are dropped. Used by the plugin's load warning and by the
+// tools (`mjstepper info`, `run`), so that both judge the timestep on the same numbers
+// (core/timestep_rule.h).
+#ifndef MJSTEPPER_PLUGIN_MODES_H_
+#define MJSTEPPER_PLUGIN_MODES_H_
+
+#include <mujoco/mujoco.h>
+
+#include <string>
+#include <vector>
+
+#include "core/timestep_rule.h"
+
+namespace mjstepper::plugin {
+
+/// A stepper as the modes see it.
+struct ModalStepper {
+  int actuator = -1;            ///< actuator id
+  std::string name;             ///< actuator name
+  double stiffness = 0;         ///< T', N·m/rad on the rotor (Drive::HoldingStiffness)
+  double detent_stiffness = 0;  ///< Σh h·Nr·Kdh, N·m/rad: the detent's worst case
+};
+
+/// A stepper takes part in a mode when at least this fraction of the mode's potential energy is in
+/// its holding stiffness: 1 % keeps a belt mode in which the rotor moves little (3 % on
+/// models/belt_axis.xml) and drops the steppers of a mode that is a spring far from them.
+inline constexpr double kMinParticipation = 0.01;
+
+struct Mode {
+  double omega = 0;  ///< rad/s
+  /// Per ModalStepper, in their order: the fraction of the mode's potential energy in its T'.
+  std::vector<double> participation;
+  /// The spring terms holding at least kMinParticipation of its energy, largest first, e.g.
+  /// "stepper 'shaft' 61 %, joint 'coupling' 39 %".
+  std::string springs;
+  /// The term with the most energy: "joint 'coupling'", "tendon 'belt'" or "stepper 'shaft'".
+  std::string dominant;
+  bool stepper() const;  ///< some stepper's participation >= kMinParticipation
+};
+
+/// The modes in increasing frequency. `key` >= 0: at that keyframe, else at qpos0. With
+/// worst_case, each stepper's stiffness is T' + detent_stiffness (where both peak: what the
+/// timestep must resolve); else T' (the resonances a speed excites). Throws std::runtime_error
+/// when M restricted to the free directions is not positive definite.
+std::vector<Mode> ComputeModes(const mjModel* m, const std::vector<ModalStepper>& steppers,
+                               int key = -1, bool worst_case = false);
+
+/// The timestep rule on the model's worst-case modes (core/timestep_rule.h), at m->opt.timestep
+/// and kMaxOmegaTimesStep.
+TimestepVerdict JudgeModelTimestep(const mjModel* m, const std::vector<ModalStepper>& steppers,
+                                   int key = -1);
+
+/// The rule's view of one mode: "mode 2 at ... (stepper 'shaft' 61 %, joint 'coupling' 39 %)".
+RuleMode ToRuleMode(const Mode& mode, int index);
+
+}  // namespace mjstepper::plugin
+
+#endif  // MJSTEPPER_PLUGIN_MODES_H_

@@ -1,0 +1,73 @@
+// The one timestep rule (issue 19): the model's modes against the simulation step. MuJoCo-free:
+// its input is the list of modes, each with its angular frequency, a name and whether a stepper
+// takes part in it; plugin/modes.h computes them from a model. The plugin's load warning,
+// `mjstepper info` and `mjstepper run` all judge a timestep here, with the same words and numbers.
+//
+// The rule: every mode must have ω·h <= max_omega_h (kMaxOmegaTimesStep today): MuJoCo's
+// semi-implicit Euler turns a mode of frequency ω into one off by about (ω·h)²/24 (drive.h). A
+// mode in which no stepper takes part (a model's own spring, e.g. a fingertip or a belt far from
+// any motor) is the model's business, as in MuJoCo without the plugin: it is named as a
+// "non-stepper mode" and warned about, never refused; only a failing stepper mode refuses a run.
+#ifndef MJSTEPPER_CORE_TIMESTEP_RULE_H_
+#define MJSTEPPER_CORE_TIMESTEP_RULE_H_
+
+#include <string>
+#include <vector>
+
+namespace mjstepper {
+
+/// One mode as the rule sees it.
+struct RuleMode {
+  double omega = 0;  ///< rad/s, > 0 (rigid-body modes at 0 are left out by the caller)
+  /// What the mode is: "mode 2 (stepper 'shaft' 61 %, joint 'coupling')", made by the caller.
+  std::string name;
+  bool stepper = false;  ///< a stepper takes part (its refusal counts)
+};
+
+/// One check the timestep fails.
+struct FailedCheck {
+  std::string name;
+  double frequency = 0;         ///< Hz, ω/2π
+  double omega_h = 0;           ///< ω·h at the judged timestep
+  double largest_timestep = 0;  ///< s, max_omega_h/ω: this check's own largest timestep
+  bool stepper = false;
+};
+
+struct TimestepVerdict {
+  double timestep = 0;     ///< s, the one judged
+  double max_omega_h = 0;  ///< the rule's parameter
+  /// Every failing check, stepper modes first, each in decreasing frequency.
+  std::vector<FailedCheck> failed;
+  /// s: the largest timestep that passes every check (stepper or not); infinite without modes.
+  double largest_timestep = 0;
+  /// s: largest_timestep rounded DOWN to 3 significant figures (printed exactly by {:.3g}); it
+  /// passes every check.
+  double suggestion = 0;
+  /// A failing stepper mode: a run refuses (unless told to allow it).
+  bool refuse() const;
+  /// "" when nothing fails; else every failing check and the suggestion, each after `separator`
+  /// (a new indented line for a terminal, "; " for MuJoCo's one-line warnings), e.g.
+  /// "M: timestep 0.0002 s is too coarse for 1 mode(s) ...; use timestep <= 4.99e-05 s ...".
+  /// `subject` starts it.
+  std::string Message(const std::string& subject, const std::string& separator = "\n  ") const;
+};
+
+/// Whether h passes a mode of frequency omega (rad/s): h <= max_omega_h/ω, the same division as
+/// its largest timestep, so a timestep equal to a printed suggestion passes.
+bool PassesMode(double omega, double timestep, double max_omega_h);
+
+/// Judges `timestep` (s) against every mode; max_omega_h > 0.
+TimestepVerdict JudgeTimestep(const std::vector<RuleMode>& modes, double timestep,
+                              double max_omega_h);
+
+/// x > 0 rounded down to 3 significant figures (the double nearest that decimal, never above x);
+/// infinity stays infinity.
+double RoundDown3(double x);
+
+/// ω·h for a message: at least 3 significant figures, more until it differs from the limit (a
+/// failing 0.2000001 is never printed as "0.2 > 0.2").
+std::string FormatOmegaH(double omega_h, double limit);
+
+}  // namespace mjstepper
+
+#endif  // MJSTEPPER_CORE_TIMESTEP_RULE_H_
