@@ -68,7 +68,62 @@ const char* InsulationClassName(double limit) {
   return limit == 105 ? "A" : limit == 120 ? "E" : limit == 155 ? "F" : limit == 180 ? "H" : "B";
 }
 
+// The name MJCF gives a transmission type, for the refusal of one the stepper does not drive.
+const char* TransmissionName(int trntype) {
+  switch (trntype) {
+    case mjTRN_JOINT:
+      return "joint";
+    case mjTRN_JOINTINPARENT:
+      return "jointinparent";
+    case mjTRN_SLIDERCRANK:
+      return "slidercrank";
+    case mjTRN_TENDON:
+      return "tendon";
+    case mjTRN_SITE:
+      return "site";
+    case mjTRN_BODY:
+      return "body";
+    default:
+      return "unknown";
+  }
+}
+
+// The hinge a gauge is drawn on: the joint of a joint transmission (a slide too, as before), the
+// first hinge of a fixed tendon (a pulley written into the belt), else none (-1).
+int GaugeJoint(const mjModel* m, int trntype, int target) {
+  if (trntype == mjTRN_JOINT) return target;
+  const int adr = m->tendon_adr[target];
+  for (int w = adr; w < adr + m->tendon_num[target]; ++w) {
+    if (m->wrap_type[w] != mjWRAP_JOINT) return -1;  // a spatial tendon
+    if (m->jnt_type[m->wrap_objid[w]] == mjJNT_HINGE) return m->wrap_objid[w];
+  }
+  return -1;
+}
+
 }  // namespace
+
+double Stepper::RotorAngleAtEnd(const mjModel* m, const mjData* d, const Actuator& a) {
+  if (a.tendon < 0) return a.gear * d->qpos[a.qposadr];
+  const int adr = m->tendon_adr[a.tendon];
+  if (m->wrap_type[adr] == mjWRAP_JOINT) {
+    // A fixed tendon: L = Σ coef·q, summed as MuJoCo's mj_tendon does, so that θ here is the next
+    // step's actuator_length to the bit.
+    double length = 0;  // m or rad, the tendon's unit
+    for (int w = adr; w < adr + m->tendon_num[a.tendon]; ++w) {
+      length += m->wrap_prm[w] * d->qpos[m->jnt_qposadr[m->wrap_objid[w]]];
+    }
+    return length * a.gear;
+  }
+  // A spatial tendon: its length is a function of the whole pose, which MuJoCo computes only in
+  // the next step's kinematics. To first order in the step, θ1 = θ0 + h·(gear·∂L/∂q)·v1: the start
+  // value and moment row (still the step's start ones here) and the integrated velocity v1.
+  double rate = 0;           // rad/s
+  const int row = a.outadr;  // moment rows are per output
+  for (int k = d->moment_rowadr[row]; k < d->moment_rowadr[row] + d->moment_rownnz[row]; ++k) {
+    rate += d->actuator_moment[k] * d->qvel[d->moment_colind[k]];
+  }
+  return d->actuator_length[a.outadr] + m->opt.timestep * rate;
+}
 
 std::string VersionMismatch(int built_for, int running) {
   if (built_for == running) return "";
@@ -95,7 +150,7 @@ int Stepper::Init(const mjModel* m, mjData* d, int instance) {
   try {  // no exception crosses into MuJoCo
     int first = 0;
     while (!IsStepperInstance(m, first)) ++first;
-    std::unique_ptr<Stepper> stepper = Create(m, instance);
+    std::unique_ptr<Stepper> stepper = Create(m, instance, /*advice=*/!judging);
     bool ok = stepper != nullptr;
     if (instance == first) {
       // Every later instance's errors too, after this one's: in model order, all of them.
@@ -103,7 +158,7 @@ int Stepper::Init(const mjModel* m, mjData* d, int instance) {
       if (stepper) stepper->AddModalSteppers(m, &steppers);
       for (int later = instance + 1; later < m->nplugin; ++later) {
         if (!IsStepperInstance(m, later)) continue;
-        const std::unique_ptr<Stepper> other = Create(m, later);
+        const std::unique_ptr<Stepper> other = Create(m, later, /*advice=*/false);
         if (other) {
           other->AddModalSteppers(m, &steppers);
         } else {
@@ -144,7 +199,7 @@ void Stepper::AddModalSteppers(const mjModel* m, std::vector<ModalStepper>* out)
   }
 }
 
-std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
+std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool advice) {
   if (const std::string mismatch = VersionMismatch(mjVERSION_HEADER, mj_version());
       !mismatch.empty()) {
     mju_warning("%s", mismatch.c_str());
@@ -222,10 +277,23 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
   for (int a : bound) {
     const std::string actuator =
         fmt::format("actuator '{}' (id {})", NameOf(m, m->name_actuatoradr[a]), a);
-    const int joint = m->actuator_trnid[2 * a];
-    if (m->actuator_trntype[a] != mjTRN_JOINT || joint < 0 ||
-        (m->jnt_type[joint] != mjJNT_HINGE && m->jnt_type[joint] != mjJNT_SLIDE)) {
-      return fail_for(actuator, "the stepper needs a joint transmission on a hinge or slide joint");
+    // θ = gear·q on a hinge or slide joint, θ = gear·L on a tendon (fixed or spatial): both are
+    // MuJoCo's actuator_length, and gear·τ (through the moment row) MuJoCo's force on the dofs.
+    const int target = m->actuator_trnid[2 * a];
+    const int trntype = m->actuator_trntype[a];
+    if (trntype == mjTRN_JOINT) {
+      if (target < 0 ||
+          (m->jnt_type[target] != mjJNT_HINGE && m->jnt_type[target] != mjJNT_SLIDE)) {
+        return fail_for(actuator,
+                        "the stepper needs a joint transmission on a hinge or slide joint, or a "
+                        "tendon transmission");
+      }
+    } else if (trntype != mjTRN_TENDON || target < 0) {
+      return fail_for(actuator,
+                      fmt::format("trntype = {}: the stepper needs a joint transmission on a hinge "
+                                  "or slide joint (joint=\"...\"), or a tendon transmission "
+                                  "(tendon=\"...\")",
+                                  TransmissionName(trntype)));
     }
     if (m->actuator_ctrlnum[a] != 1 || m->actuator_outnum[a] != 1) {
       return fail_for(actuator, "the stepper takes one control and drives one output");
@@ -248,7 +316,9 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
                                    .ctrladr = m->actuator_ctrladr[a],
                                    .actadr = actadr,
                                    .outadr = m->actuator_outadr[a],
-                                   .qposadr = m->jnt_qposadr[joint],
+                                   .qposadr = trntype == mjTRN_JOINT ? m->jnt_qposadr[target] : -1,
+                                   .tendon = trntype == mjTRN_TENDON ? target : -1,
+                                   .gauge_joint = GaugeJoint(m, trntype, target),
                                    .gear = gear});
     // The rotor's inertia is MuJoCo's business (armature); the preset knows its value.
     const double rotor_inertia = stepper->drive_->config().motor.rotor_inertia;  // kg·m²
@@ -260,6 +330,20 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance) {
               "add armature=\"{:g}\" to the actuator (MuJoCo reflects it through gear²), or set "
               "rotor_inertia=\"0\" if the model carries the rotor itself",
               rotor_inertia, m->actuator_armature[a], rotor_inertia));
+    }
+    // MuJoCo 4.0 adds a tendon's armature to the mass matrix within each kinematic tree only (the
+    // cross-tree terms of J·gear²·(∂L/∂q)ᵀ(∂L/∂q) are dropped; tests/plugin/tendon_test.cc): on a
+    // tendon across trees the rotor does not couple them as a rigid cable would.
+    if (advice && trntype == mjTRN_TENDON && m->tendon_treenum[target] > 1 &&
+        m->actuator_armature[a] > 0) {
+      mju_warning(
+          "%s",
+          fmt::format("mjstepper: {}: tendon '{}' spans {} kinematic trees, and MuJoCo adds the "
+                      "rotor's armature (J·gear²) within each tree only: the rotor's inertia "
+                      "does not couple them; for a rigid rotor put the tendon's joints in one "
+                      "tree, or the rotor as a body on a hinge in the tendon (rotor_inertia=\"0\")",
+                      actuator, NameOf(m, m->name_tendonadr[target]), m->tendon_treenum[target])
+              .c_str());
     }
   }
   return stepper;
@@ -363,7 +447,7 @@ void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
     if (state.started || std::isfinite(t0)) {
       // actuator_length still holds the step's start value here (Euler, implicitfast).
       if (!state.started) state = drive_->Rest(t0, d->actuator_length[a.outadr], command);
-      const double theta1 = a.gear * d->qpos[a.qposadr];  // rad, rotor side, at t1
+      const double theta1 = RotorAngleAtEnd(m, d, a);  // rad, rotor side, at t1
       status = drive_->Advance(&state, t0, t1, theta1, command);
       drive_->Store(state, Slot(m, d, instance, slot));
     }
@@ -393,7 +477,8 @@ void Stepper::Visualize(const mjModel* m, const mjData* d, mjvScene* scene, int 
   for (size_t slot = 0; slot < actuators_.size(); ++slot) {
     if (scene->ngeom + 2 > scene->maxgeom) return;
     const Actuator& a = actuators_[slot];
-    const int joint = m->actuator_trnid[2 * a.id];
+    const int joint = a.gauge_joint;
+    if (joint < 0) continue;  // a tendon with no hinge of its own to draw on
     const int body = m->jnt_bodyid[joint];
     const double theta = d->actuator_length[a.outadr];
     const double load_angle = drive_->Signals(CurrentState(m, d, instance, slot), theta).load_angle;

@@ -41,7 +41,7 @@ inline constexpr double kMaxGear = 1e6;
 class Stepper {
  public:
   /// Parses and checks the instance; on error warns (naming attribute and value) and returns null.
-  static std::unique_ptr<Stepper> Create(const mjModel* m, int instance);
+  static std::unique_ptr<Stepper> Create(const mjModel* m, int instance, bool advice);
 
   /// The plugin's init: creates the instance into plugin_data; 0, or -1 on error. MuJoCo frees
   /// mjData without destroying the instances made before a failing one, so the model's first
@@ -84,9 +84,13 @@ class Stepper {
     int ctrladr = 0;
     int actadr = -1;  // the activation the drive reads instead of ctrl (a dyntype set), or -1
     int outadr = 0;
-    int qposadr = 0;
+    int qposadr = -1;      // a joint transmission's joint: θ = gear·qpos[qposadr]
+    int tendon = -1;       // a tendon transmission's tendon (plugin/README.md, "Tendons")
+    int gauge_joint = -1;  // the hinge the gauge is drawn on, or -1 (none)
     double gear = 1;
   };
+  /// The rotor angle at the step's end t1 (qpos already integrated), rad.
+  static double RotorAngleAtEnd(const mjModel* m, const mjData* d, const Actuator& a);
 
   Stepper();
   /// The actuator's command from its ctrl, clamped as MuJoCo would, or from its activation when

@@ -15,7 +15,23 @@
 namespace mjstepper {
 namespace {
 
-enum class Dim { kSpeed, kAngle, kTime };
+enum class Dim { kSpeed, kAngle, kTime, kAcceleration };
+
+// Units of length (m), speed (m/s) and acceleration (m/s²) along a linear axis, in metres; the
+// rotor's radians are gear times them (θ = gear·x).
+struct LinearUnit {
+  const char* name;
+  double metres;  // per unit
+  Dim dim;
+};
+constexpr LinearUnit kLinearUnits[] = {{"m", 1.0, Dim::kAngle},
+                                       {"mm", 1e-3, Dim::kAngle},
+                                       {"m/s", 1.0, Dim::kSpeed},
+                                       {"mm/s", 1e-3, Dim::kSpeed},
+                                       {"m/s²", 1.0, Dim::kAcceleration},
+                                       {"m/s^2", 1.0, Dim::kAcceleration},
+                                       {"mm/s²", 1e-3, Dim::kAcceleration},
+                                       {"mm/s^2", 1e-3, Dim::kAcceleration}};
 
 struct Quantity {
   double value = 0;  // SI
@@ -29,7 +45,8 @@ std::string Trim(std::string_view s) {
   return std::string(s.substr(b, e - b + 1));
 }
 
-Quantity ParseQuantity(const std::string& text, std::string_view whole) {
+Quantity ParseQuantity(const std::string& text, std::string_view whole,
+                       std::optional<double> rad_per_metre) {
   const std::string t = Trim(text);
   double v = 0;
   const char* begin = t.data() + (!t.empty() && t[0] == '+' ? 1 : 0);
@@ -40,10 +57,25 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole) {
   }
   const std::string unit = Trim(std::string_view(ptr, t.data() + t.size() - ptr));
   Quantity q;
-  if (unit == "rpm" || unit == "r/min") {
+  const auto linear = std::find_if(std::begin(kLinearUnits), std::end(kLinearUnits),
+                                   [&unit](const LinearUnit& u) { return unit == u.name; });
+  if (linear != std::end(kLinearUnits)) {
+    if (!rad_per_metre) {
+      throw std::invalid_argument(fmt::format(
+          "profile \"{}\": \"{}\" is in {}, a linear unit: it needs a stepper on a slide joint "
+          "or a tendon (θ = gear·x); on a hinge give rad, deg, rpm, r/min, rad/s or rad/s²",
+          whole, t, unit));
+    }
+    // rad, rad/s, or rad/s² (a rate: a negative gear turns the motion, not the rate)
+    const double scale =
+        linear->dim == Dim::kAcceleration ? std::abs(*rad_per_metre) : *rad_per_metre;
+    q = {scale * (v * linear->metres), linear->dim};
+  } else if (unit == "rpm" || unit == "r/min") {
     q = {RpmToRadPerSec(v), Dim::kSpeed};
   } else if (unit == "rad/s") {
     q = {v, Dim::kSpeed};
+  } else if (unit == "rad/s²" || unit == "rad/s^2") {
+    q = {v, Dim::kAcceleration};
   } else if (unit == "rad") {
     q = {v, Dim::kAngle};
   } else if (unit == "deg") {
@@ -54,12 +86,18 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole) {
     q = {v * 1e-3, Dim::kTime};
   } else {
     throw std::invalid_argument(fmt::format(
-        "profile \"{}\": \"{}\" needs a unit: rpm, r/min, rad/s, rad, deg, s or ms", whole, t));
+        "profile \"{}\": \"{}\" needs a unit: rpm, r/min, rad/s, rad/s², rad, deg, s or ms (on "
+        "a slide joint or a tendon also m, mm, m/s, mm/s, m/s², mm/s²)",
+        whole, t));
   }
-  const double bound = q.dim == Dim::kSpeed   ? kMaxProfileSpeed
-                       : q.dim == Dim::kAngle ? kMaxProfileAngle
-                                              : kMaxProfileTime;
-  const char* bound_unit = q.dim == Dim::kSpeed ? "rad/s" : q.dim == Dim::kAngle ? "rad" : "s";
+  const double bound = q.dim == Dim::kSpeed          ? kMaxProfileSpeed
+                       : q.dim == Dim::kAngle        ? kMaxProfileAngle
+                       : q.dim == Dim::kAcceleration ? kMaxProfileAcceleration
+                                                     : kMaxProfileTime;
+  const char* bound_unit = q.dim == Dim::kSpeed          ? "rad/s"
+                           : q.dim == Dim::kAngle        ? "rad"
+                           : q.dim == Dim::kAcceleration ? "rad/s²"
+                                                         : "s";
   if (!(std::abs(q.value) <= bound)) {
     throw std::invalid_argument(
         fmt::format("profile \"{}\": \"{}\" is beyond ±{:g} {}", whole, t, bound, bound_unit));
@@ -67,10 +105,26 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole) {
   return q;
 }
 
+// The time to change speed by `change` (rad/s) at `acceleration` (rad/s²), s.
+double RampTime(double change, double acceleration, std::string_view whole) {
+  if (!(acceleration > 0)) {
+    throw std::invalid_argument(fmt::format(
+        "profile \"{}\": an acceleration must be > 0 (a rate, not a signed value)", whole));
+  }
+  const double time = std::abs(change) / acceleration;  // s
+  if (!(time <= kMaxProfileTime)) {
+    throw std::invalid_argument(
+        fmt::format("profile \"{}\": its acceleration takes {:g} s, beyond {:g} s", whole, time,
+                    kMaxProfileTime));
+  }
+  return time;
+}
+
 }  // namespace
 
 // shaped(PROFILE, TYPE FREQUENCYHz [DAMPING]): the shaper after the last comma (it has none).
-CommandProfile CommandProfile::ParseShaped(const std::string& whole, const std::string& inner) {
+CommandProfile CommandProfile::ParseShaped(const std::string& whole, const std::string& inner,
+                                           std::optional<double> rad_per_metre) {
   const size_t comma = inner.rfind(',');
   auto bad = [&](const std::string& why) {
     return std::invalid_argument(fmt::format(
@@ -109,7 +163,7 @@ CommandProfile CommandProfile::ParseShaped(const std::string& whole, const std::
       throw bad(fmt::format("\"{}\" is not a damping ratio", damping_text));
     }
   }
-  CommandProfile p = Parse(inner.substr(0, comma));
+  CommandProfile p = Parse(inner.substr(0, comma), rad_per_metre);
   InputShaper shaper;
   try {
     shaper = MakeShaper(type, frequency, damping);
@@ -123,7 +177,7 @@ CommandProfile CommandProfile::ParseShaped(const std::string& whole, const std::
   return p;
 }
 
-CommandProfile CommandProfile::Parse(std::string_view text) {
+CommandProfile CommandProfile::Parse(std::string_view text, std::optional<double> rad_per_metre) {
   const std::string whole(text);
   const size_t open = whole.find('(');
   const size_t close = whole.rfind(')');
@@ -135,7 +189,9 @@ CommandProfile CommandProfile::Parse(std::string_view text) {
                     whole));
   }
   const std::string name = Trim(whole.substr(0, open));
-  if (name == "shaped") return ParseShaped(whole, whole.substr(open + 1, close - open - 1));
+  if (name == "shaped") {
+    return ParseShaped(whole, whole.substr(open + 1, close - open - 1), rad_per_metre);
+  }
   if (name == "steps") {  // a file of step times, not quantities
     CommandProfile p;
     p.text_ = whole;
@@ -149,7 +205,7 @@ CommandProfile CommandProfile::Parse(std::string_view text) {
   size_t start = 0;
   while (true) {
     const size_t comma = inner.find(',', start);
-    args.push_back(ParseQuantity(inner.substr(start, comma - start), whole));
+    args.push_back(ParseQuantity(inner.substr(start, comma - start), whole, rad_per_metre));
     if (comma == std::string::npos) break;
     start = comma + 1;
   }
@@ -159,14 +215,21 @@ CommandProfile CommandProfile::Parse(std::string_view text) {
   CommandProfile p;
   p.text_ = whole;
   if (name == "constant") {
-    if (args.size() != 1 || args[0].dim == Dim::kTime)
+    if (args.size() != 1 || (args[0].dim != Dim::kSpeed && args[0].dim != Dim::kAngle))
       throw bad("constant(speed) or constant(angle)");
     p.kind_ = args[0].dim == Dim::kSpeed ? Kind::kConstantSpeed : Kind::kAngleHold;
     p.a_ = args[0].value;
   } else if (name == "ramp") {
+    // A speed ramp may give its acceleration instead of its duration: T = |to − from|/a.
+    if (args.size() == 3 && args[0].dim == Dim::kSpeed && args[1].dim == Dim::kSpeed &&
+        args[2].dim == Dim::kAcceleration) {
+      args[2] = {RampTime(args[1].value - args[0].value, args[2].value, whole), Dim::kTime};
+    }
     if (args.size() != 3 || args[0].dim != args[1].dim || args[0].dim == Dim::kTime ||
-        args[2].dim != Dim::kTime || !(args[2].value > 0)) {
-      throw bad("ramp(from, to, duration > 0), from and to both speeds or both angles");
+        args[0].dim == Dim::kAcceleration || args[2].dim != Dim::kTime || !(args[2].value > 0)) {
+      throw bad(
+          "ramp(from, to, duration > 0), from and to both speeds or both angles (a speed ramp "
+          "may give its acceleration instead of its duration)");
     }
     p.kind_ = args[0].dim == Dim::kSpeed ? Kind::kSpeedRamp : Kind::kAngleRamp;
     if (p.kind_ == Kind::kAngleRamp &&
@@ -177,10 +240,18 @@ CommandProfile CommandProfile::Parse(std::string_view text) {
     p.b_ = args[1].value;
     p.t1_ = args[2].value;
   } else if (name == "trapezoid") {
+    // Its acceleration and deceleration may be rates instead of times: T = |peak|/a.
+    for (size_t k : {size_t{1}, size_t{3}}) {
+      if (args.size() == 4 && args[0].dim == Dim::kSpeed && args[k].dim == Dim::kAcceleration) {
+        args[k] = {RampTime(args[0].value, args[k].value, whole), Dim::kTime};
+      }
+    }
     if (args.size() != 4 || args[0].dim != Dim::kSpeed || args[1].dim != Dim::kTime ||
         args[2].dim != Dim::kTime || args[3].dim != Dim::kTime || !(args[1].value >= 0) ||
         !(args[2].value >= 0) || !(args[3].value >= 0)) {
-      throw bad("trapezoid(peak speed, accel time, cruise time, decel time), times >= 0");
+      throw bad(
+          "trapezoid(peak speed, accel time, cruise time, decel time), times >= 0 (accel and "
+          "decel may be accelerations instead)");
     }
     p.kind_ = Kind::kTrapezoid;
     p.a_ = args[0].value;

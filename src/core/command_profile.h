@@ -2,14 +2,19 @@
 //   constant(100rpm)                 constant speed (rpm, r/min, rad/s)
 //   constant(0.5rad)                 hold an angle (rad, deg)
 //   ramp(0rpm, 200rpm, 0.8s)         speed ramp, then hold the final speed
+//   ramp(0rpm, 200rpm, 50rad/s²)     the same by its acceleration (rad/s²): T = |Δω|/a
 //   ramp(0rad, 3.1416rad, 1s)        angle ramp (constant speed), then hold the final angle
-//   trapezoid(200rpm, 0.2s, 0.5s, 0.2s)  0 → peak in Ta, cruise Tc, → 0 in Td, then rest
+//   trapezoid(200rpm, 0.2s, 0.5s, 0.2s)  0 → peak in Ta, cruise Tc, → 0 in Td, then rest (Ta and
+//                                    Td may be accelerations: Ta = |peak|/a)
 //   steps(moves.txt)                 STEP/DIR pulses from a step-time list (step_times.h), for
 //                                    drives with input = steps: the count at t
 //   shaped(PROFILE, mzv 40Hz)        PROFILE through an input shaper (shaper.h): TYPE (zv, mzv,
 //   shaped(PROFILE, ei 40Hz 0.15)    zvd, ei, 2hump_ei, 3hump_ei), its frequency in Hz and
 //                                    optionally its damping ratio (default 0.1); nested shaped()
 //                                    puts two shapers in series (two modes)
+// On a linear axis (a stepper on a slide joint or a tendon: θ = gear·x) lengths, speeds and
+// accelerations may be linear: m, mm, m/s, mm/s, m/s², mm/s² (also m/s^2, mm/s^2), converted to
+// the rotor's rad, rad/s, rad/s² with the transmission's gear (rad per metre): θ = gear·(v·unit).
 // A shaped profile is the convolution Σ A_i·P(t − T_i) of its angle, its speed and a step list's
 // count (rounded to whole steps); for profiles relative to t = 0 (speeds, step lists) less its
 // value at t = 0, so the angle stays relative to t = 0 (nothing to take away for those starting at
@@ -18,6 +23,7 @@
 #define MJSTEPPER_CORE_COMMAND_PROFILE_H_
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -34,12 +40,16 @@ namespace mjstepper {
 inline constexpr double kMaxProfileSpeed = 1e4;  // rad/s
 inline constexpr double kMaxProfileAngle = 1e7;  // rad
 inline constexpr double kMaxProfileTime = 1e6;   // s
+/// An acceleration: the bound of speed over a 1 µs ramp, 1e10 rad/s².
+inline constexpr double kMaxProfileAcceleration = 1e10;  // rad/s²
 
 class CommandProfile {
  public:
   /// Throws std::invalid_argument quoting the text and saying what is expected (and any number
-  /// beyond the bounds above).
-  static CommandProfile Parse(std::string_view text);
+  /// beyond the bounds above). `rad_per_metre`: the transmission's gear on a linear axis (a slide
+  /// joint or a tendon), which converts linear units; none (a hinge) refuses them, naming the unit.
+  static CommandProfile Parse(std::string_view text,
+                              std::optional<double> rad_per_metre = std::nullopt);
 
   /// Commanded speed at t, rad/s; a step list's step rate times `step_angle` (rad per microstep).
   double Speed(double t, double step_angle = 0) const;
@@ -65,7 +75,8 @@ class CommandProfile {
 
  private:
   enum class Kind { kConstantSpeed, kAngleHold, kSpeedRamp, kAngleRamp, kTrapezoid, kStepList };
-  static CommandProfile ParseShaped(const std::string& whole, const std::string& inner);
+  static CommandProfile ParseShaped(const std::string& whole, const std::string& inner,
+                                    std::optional<double> rad_per_metre);
   // The profile before shaping.
   double RawSpeed(double t, double step_angle) const;
   double RawAngle(double t, double step_angle) const;

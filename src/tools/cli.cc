@@ -44,7 +44,8 @@ CommandLine::CommandLine() : app_("mjstepper: stepper motors and their drives on
       ->check(InRange("duration"));
   run_->add_option("--ctrl", ctrl_,
                    "ACTUATOR=PROFILE, e.g. 'shaft=ramp(0rpm,200rpm,0.8s)'; profiles: constant(X), "
-                   "ramp(A,B,T), trapezoid(V,Ta,Tc,Td); units rpm, rad/s, rad, deg, s; speeds "
+                   "ramp(A,B,T), trapezoid(V,Ta,Tc,Td); units rpm, rad/s, rad/s², rad, deg, s (on "
+                   "a slide or a tendon also m, mm, m/s, mm/s, m/s², mm/s²: θ = gear·x); speeds "
                    "within ±1e4 rad/s, angles ±1e7 rad, times 1e6 s; or steps(FILE), a "
                    "STEP/DIR list (one step time in s per line, optionally +1/-1) for input=steps");
   run_->add_option("--log", c.run.log, "CSV log (a regular file or nothing; written whole)");
@@ -233,7 +234,9 @@ void CommandLine::Check() {
       }
       const std::string profile = item.substr(eq + 1);
       try {
-        CommandProfile::Parse(profile);  // its bounds, before any work
+        // Its grammar and bounds, before any work; linear units are checked here at 1 rad/m
+        // and again with the stepper's own gear once the model is loaded (runner.cc).
+        CommandProfile::Parse(profile, 1.0);
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument(fmt::format("--ctrl {}: {}", item, e.what()));
       }

@@ -71,8 +71,17 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   std::vector<double> theta_start;
   for (const StepperActuator& s : sm.steppers) {
     const auto it = options.ctrl.find(s.name);
-    profiles.push_back(
-        CommandProfile::Parse(it != options.ctrl.end() ? it->second : "constant(0rad/s)"));
+    if (it == options.ctrl.end()) {
+      profiles.push_back(CommandProfile::Parse("constant(0rad/s)"));
+    } else {
+      try {  // linear units (mm, m/s, …) through the gear of a slide or a tendon
+        profiles.push_back(CommandProfile::Parse(it->second, RadPerMetre(m, s)));
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(fmt::format("--ctrl {}={}: actuator '{}' drives {}: {}", s.name,
+                                                it->second, s.name, TransmissionTarget(m, s),
+                                                e.what()));
+      }
+    }
     // A velocity-input drive integrates its ctrl: an angle target would be reduced to its slope
     // (constant(0.5rad) to standing still), silently.
     if (s.config.input == InputMode::kVelocity && profiles.back().absolute_angle()) {

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -214,6 +215,26 @@ void SetBodyMass(mjModel* m, const std::string& name, double mass) {
   mj_setConst(m, d.get());
 }
 
+std::optional<double> RadPerMetre(const mjModel* m, const StepperActuator& s) {
+  const int target = m->actuator_trnid[2 * s.actuator];
+  if (m->actuator_trntype[s.actuator] == mjTRN_TENDON ||
+      (m->actuator_trntype[s.actuator] == mjTRN_JOINT && m->jnt_type[target] == mjJNT_SLIDE)) {
+    return Gear(m, s);
+  }
+  return std::nullopt;
+}
+
+std::string TransmissionTarget(const mjModel* m, const StepperActuator& s) {
+  const int target = m->actuator_trnid[2 * s.actuator];
+  if (m->actuator_trntype[s.actuator] == mjTRN_TENDON) {
+    const char* name = mj_id2name(m, mjOBJ_TENDON, target);
+    return fmt::format("tendon '{}'", name != nullptr ? name : fmt::format("{}", target));
+  }
+  const char* name = mj_id2name(m, mjOBJ_JOINT, target);
+  return fmt::format("{} joint '{}'", m->jnt_type[target] == mjJNT_SLIDE ? "slide" : "hinge",
+                     name != nullptr ? name : fmt::format("{}", target));
+}
+
 StepperResolution Resolution(const mjModel* m, const StepperActuator& s) {
   StepperResolution r;
   const Drive drive(s.config);
@@ -268,15 +289,39 @@ std::vector<ResonantSpeed> ResonantSpeeds(const std::vector<plugin::Mode>& modes
   return out;
 }
 
+std::vector<double> MomentRow(const mjModel* m, const mjData* d, int actuator) {
+  std::vector<double> row(m->nv, 0.0);
+  const int out = m->actuator_outadr[actuator];  // moment rows are per output
+  for (int k = d->moment_rowadr[out]; k < d->moment_rowadr[out] + d->moment_rownnz[out]; ++k) {
+    row[d->moment_colind[k]] += d->actuator_moment[k];
+  }
+  return row;
+}
+
 double ReflectedInertia(const mjModel* m, int actuator) {
   DataPtr d(mj_makeData(m));
   mj_forward(m, d.get());
   std::vector<mjtNum> dense(m->nv * m->nv);
   mj_fullM(m, d.get(), dense.data());
-  const int joint = m->actuator_trnid[2 * actuator];
-  const int dof = m->jnt_dofadr[joint];
-  const double gear = m->actuator_gear[6 * m->actuator_outadr[actuator]];
-  return dense[dof * m->nv + dof] / (gear * gear);
+  const std::vector<double> row = MomentRow(m, d.get(), actuator);
+  std::vector<int> moved;  // the dofs the actuator moves; the others are held
+  for (int i = 0; i < m->nv; ++i) {
+    if (row[i] != 0) moved.push_back(i);
+  }
+  if (moved.empty()) return 0;
+  if (moved.size() == 1) {  // a joint (r = gear), or a tendon over one joint
+    const int dof = moved[0];
+    return dense[dof * m->nv + dof] / (row[dof] * row[dof]);
+  }
+  const int n = static_cast<int>(moved.size());
+  Eigen::MatrixXd mass(n, n);
+  Eigen::VectorXd r(n);
+  for (int i = 0; i < n; ++i) {
+    r(i) = row[moved[i]];
+    for (int j = 0; j < n; ++j) mass(i, j) = dense[moved[i] * m->nv + moved[j]];
+  }
+  // The inertia of the actuator's own coordinate: 1/(r·M⁻¹·rᵀ) (M symmetric positive definite).
+  return 1.0 / r.dot(mass.ldlt().solve(r));
 }
 
 int AccelerometerAddress(const mjModel* m, const std::string& name) {

@@ -7,6 +7,7 @@
 #include <mujoco/mujoco.h>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,13 @@ struct StepperActuator {
 inline double Gear(const mjModel* m, const StepperActuator& s) {
   return m->actuator_gear[6 * s.outadr];
 }
+
+/// A linear axis's rad per metre for profiles in m, mm, m/s, … (θ = gear·x): the gear of a stepper
+/// on a slide joint or a tendon; none on a hinge, whose profiles are rotor angles only.
+std::optional<double> RadPerMetre(const mjModel* m, const StepperActuator& s);
+
+/// What the stepper drives, for messages: "hinge joint 'shaft'", "tendon 'belt'".
+std::string TransmissionTarget(const mjModel* m, const StepperActuator& s);
 
 struct ModelDeleter {
   void operator()(mjModel* m) const { mj_deleteModel(m); }
@@ -112,9 +120,15 @@ std::vector<int> ExcitationOrders(const DriveConfig& c);
 std::vector<ResonantSpeed> ResonantSpeeds(const std::vector<plugin::Mode>& modes, size_t index,
                                           const DriveConfig& c);
 
-/// Rotor-side inertia seen by the actuator at qpos0, kg·m²: M[dof, dof] / gear² (armature
-/// included).
+/// Rotor-side inertia seen by the actuator at qpos0, kg·m² (armature included), from its moment
+/// row r = ∂θ/∂q (gear on a joint, gear·∂L/∂q on a tendon): the dofs the row moves are free, every
+/// other dof is held, J = 1/(r_S·M_SS⁻¹·r_Sᵀ) over the row's dofs S. On a joint that is
+/// M[dof, dof]/gear² (computed so, to the bit); on a fixed tendon over one joint the same.
 double ReflectedInertia(const mjModel* m, int actuator);
+
+/// The actuator's moment row at d's pose (after mj_forward or mj_fwdPosition): ∂θ/∂q, dense over
+/// the nv dofs (gear at the joint's dof on a joint transmission; gear·∂L/∂q on a tendon).
+std::vector<double> MomentRow(const mjModel* m, const mjData* d, int actuator);
 
 }  // namespace mjstepper::tools
 

@@ -103,8 +103,6 @@ PullOutPoint RunPullOut(const mjModel* m, const StepperActuator& s, double speed
   SpeedRun run(m, s, speed, o.acceleration);
   mjData* d = run.d;
   const double load_start = run.ramp + o.settle;  // s
-  const int dof = m->jnt_dofadr[m->actuator_trnid[2 * s.actuator]];
-  const double gear = Gear(m, s);
   const double against = speed < 0 ? 1.0 : -1.0;  // the load opposes the motion
   PullOutPoint p{.speed = speed};
   while (true) {
@@ -115,7 +113,11 @@ PullOutPoint RunPullOut(const mjModel* m, const StepperActuator& s, double speed
       p.held_max = true;
       break;
     }
-    d->qfrc_applied[dof] = against * gear * load;
+    // τ·r on the dofs, r the moment row at this pose (gear at a joint's dof: gear·τ).
+    const std::vector<double> row = MomentRow(m, d, s.actuator);
+    for (int i = 0; i < m->nv; ++i) {
+      if (row[i] != 0) d->qfrc_applied[i] = against * row[i] * load;
+    }
     run.Step();
     mj_forward(m, d);  // the signals of the new state
     if (Slipped(d, s)) {

@@ -1,19 +1,24 @@
 #include "core/command_profile.h"
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "core/units.h"
 
 namespace mjstepper {
 namespace {
 
+using ::testing::AllOf;
 using ::testing::HasSubstr;
 
 TEST(CommandProfile, RampSpeedAndAngleAgree) {
@@ -118,6 +123,83 @@ TEST(CommandProfile, StepListDrivesTheCountFromTheStartAngle) {
         return std::string();
       }(),
       HasSubstr("cannot be read"));
+}
+
+// Linear units on a linear axis (issue 19 item 7): θ = gear·x with the transmission's gear in rad
+// per metre. A profile in mm, mm/s, mm/s² gives the very commands of the same profile written by
+// hand in rad, rad/s, rad/s² (each value gear·(v·1e-3), printed to 17 digits): bit-identical, for
+// every form and through a shaper.
+TEST(CommandProfile, LinearUnitsEqualTheRotorUnitsByHand) {
+  const double gear = kTwoPi / 0.008;  // rad/m: a lead screw of 8 mm per turn
+  auto rad = [gear](double value, double metres) {
+    return fmt::format("{:.17g}", gear * (value * metres));
+  };
+  const std::vector<std::pair<std::string, std::string>> pairs = {
+      {"constant(25mm/s)", "constant(" + rad(25, 1e-3) + "rad/s)"},
+      {"constant(0.012m/s)", "constant(" + rad(0.012, 1) + "rad/s)"},
+      {"constant(12.5mm)", "constant(" + rad(12.5, 1e-3) + "rad)"},
+      {"ramp(0mm, 40mm, 0.5s)", "ramp(" + rad(0, 1e-3) + "rad, " + rad(40, 1e-3) + "rad, 0.5s)"},
+      {"ramp(0m/s, 0.05m/s, 0.2s)", "ramp(0rad/s, " + rad(0.05, 1) + "rad/s, 0.2s)"},
+      {"ramp(0mm/s, 50mm/s, 250mm/s²)",
+       "ramp(0rad/s, " + rad(50, 1e-3) + "rad/s, " + rad(250, 1e-3) + "rad/s²)"},
+      {"trapezoid(80mm/s, 0.1s, 0.3s, 0.1s)",
+       "trapezoid(" + rad(80, 1e-3) + "rad/s, 0.1s, 0.3s, 0.1s)"},
+      {"trapezoid(80mm/s, 2m/s^2, 0.3s, 1000mm/s²)", "trapezoid(" + rad(80, 1e-3) + "rad/s, " +
+                                                         rad(2, 1) + "rad/s^2, 0.3s, " +
+                                                         rad(1000, 1e-3) + "rad/s²)"},
+      {"shaped(trapezoid(80mm/s, 0.1s, 0.3s, 0.1s), mzv 40Hz)",
+       "shaped(trapezoid(" + rad(80, 1e-3) + "rad/s, 0.1s, 0.3s, 0.1s), mzv 40Hz)"},
+      {"shaped(constant(5mm), ei 30Hz 0.15)",
+       "shaped(constant(" + rad(5, 1e-3) + "rad), ei 30Hz 0.15)"}};
+  for (const auto& [linear, by_hand] : pairs) {
+    const CommandProfile a = CommandProfile::Parse(linear, gear);
+    const CommandProfile b = CommandProfile::Parse(by_hand);
+    EXPECT_EQ(a.absolute_angle(), b.absolute_angle()) << linear;
+    for (double t = -0.01; t < 0.8; t += 0.0137) {
+      for (InputMode input : {InputMode::kVelocity, InputMode::kPosition, InputMode::kSteps}) {
+        ASSERT_EQ(a.ControlForStep(t, 1e-3, input, 0.3, 1e-3),
+                  b.ControlForStep(t, 1e-3, input, 0.3, 1e-3))
+            << linear << " at " << t;
+      }
+      ASSERT_EQ(a.Speed(t), b.Speed(t)) << linear << " at " << t;
+      ASSERT_EQ(a.Angle(t), b.Angle(t)) << linear << " at " << t;
+    }
+  }
+  // The numbers themselves: 25 mm/s is 25e-3·gear rad/s; the accelerations are rates: 50 mm/s at
+  // 250 mm/s² is a 0.2 s ramp; a negative gear turns the motion, not the ramp's time.
+  EXPECT_EQ(CommandProfile::Parse("constant(25mm/s)", gear).Speed(0), gear * 25e-3);
+  EXPECT_NEAR(CommandProfile::Parse("ramp(0mm/s, 50mm/s, 250mm/s²)", gear).Speed(0.1), gear * 25e-3,
+              1e-9);
+  EXPECT_NEAR(CommandProfile::Parse("ramp(0mm/s, 50mm/s, 250mm/s²)", -gear).Speed(0.1),
+              -gear * 25e-3, 1e-9);
+  EXPECT_NEAR(CommandProfile::Parse("trapezoid(60rpm, 10rad/s², 0s, 10rad/s²)").Angle(5),
+              kTwoPi * kTwoPi / 10, 1e-9);  // ω²/a: two ramps of ω/a = 0.628 s
+}
+
+// Without a linear axis (a hinge: no rad per metre) a linear unit is refused naming the unit; an
+// angular unit stays valid on a linear axis (it is the rotor's angle); an acceleration is a rate.
+TEST(CommandProfile, LinearUnitsNeedALinearAxis) {
+  auto error = [](const std::string& text, std::optional<double> rad_per_metre) {
+    try {
+      CommandProfile::Parse(text, rad_per_metre);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  for (const char* unit : {"mm", "m", "mm/s", "m/s"}) {
+    const std::string text = fmt::format("constant(10{})", unit);
+    EXPECT_THAT(error(text, std::nullopt),
+                AllOf(HasSubstr(text), HasSubstr(fmt::format("is in {}, a linear unit", unit)),
+                      HasSubstr("slide joint or a tendon")))
+        << unit;
+  }
+  EXPECT_THAT(error("ramp(0mm/s, 5mm/s, 10mm/s²)", std::nullopt), HasSubstr("mm/s²"));
+  EXPECT_EQ(error("constant(100rpm)", 157.08), "");
+  EXPECT_EQ(error("constant(1rad)", 157.08), "");
+  EXPECT_THAT(error("ramp(0mm/s, 5mm/s, -10mm/s²)", 157.08), HasSubstr("must be > 0"));
+  EXPECT_THAT(error("constant(10mm/s²)", 157.08), HasSubstr("expected constant(speed)"));
+  EXPECT_THAT(error("constant(1e6m/s)", 157.08), HasSubstr("beyond"));  // 1.6e8 rad/s
 }
 
 }  // namespace

@@ -122,9 +122,9 @@ void CheckRejection(const std::string& message, const std::map<std::string, std:
   Fail("config rejection does not quote the value given", context);
 }
 
-void CheckProfile(const std::string& text) {
+void CheckProfile(const std::string& text, std::optional<double> rad_per_metre) {
   try {
-    const CommandProfile profile = CommandProfile::Parse(text);
+    const CommandProfile profile = CommandProfile::Parse(text, rad_per_metre);
     // Exercised for UB only: an absurd accepted profile may overflow to inf (the plugin then
     // holds).
     for (double t : {-1.0, 0.0, 1e-4, 0.3, 1.0, 1e3}) {
@@ -146,7 +146,7 @@ void CheckProfile(const std::string& text) {
 void CheckDrive(const StepperConfig& config, FuzzedDataProvider& in,
                 const std::string& profile_text, const std::map<std::string, std::string>& given) {
   constexpr double kTimesteps[] = {50e-6, 1e-3, 2e-3, 10e-6, 1e-6, 0.01};
-  const double h = in.PickValueInArray(kTimesteps);                     // s
+  const double h = in.PickValueInArray(kTimesteps);                   // s
   if (!mjstepper::InterruptsFit(h, config.drive.isr_period)) return;  // the plugin refuses it
   const double theta0 = in.ConsumeFloatingPointInRange<double>(-100.0, 100.0);   // rad
   const double omega = in.ConsumeFloatingPointInRange<double>(-1000.0, 1000.0);  // rad/s
@@ -232,7 +232,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (const std::string* error = std::get_if<std::string>(&parsed)) {
     CheckRejection(*error, given);
   }
-  CheckProfile(profile_text);
+  // A hinge (no linear units), a capstan's 157.08 rad/m and an extreme negative gear.
+  for (const std::optional<double> rad_per_metre :
+       {std::optional<double>(), std::optional(157.08), std::optional(-1e6)}) {
+    CheckProfile(profile_text, rad_per_metre);
+  }
   if (const StepperConfig* config = std::get_if<StepperConfig>(&parsed)) {
     CheckDrive(*config, in, profile_text, given);
   }

@@ -1,4 +1,5 @@
 // The mjstepper command end to end: run writes a complete CSV with units, info describes steppers.
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -211,6 +212,118 @@ TEST(Runner, LoadSetsTheConstantLoadTorque) {
   EXPECT_THAT(r.output, HasSubstr("--load load=nan"));
 }
 
+// The file's whole text (a CSV compared to the byte).
+std::string FileText(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Issue 19 items 6 and 7: the cable axis (a stepper on a spatial tendon) takes its profile in mm:
+// the run is byte-for-byte the run of the same profile written by hand in rad/s (gear·(v·1e-3),
+// gear = 157.08 rad/m, to 17 digits), and it moves the carriage the trapezoid's 25 mm
+// (100 mm/s × (0.025 + 0.2 + 0.025) s): θ changes by gear·0.025 m = 3.927 rad, less the rotor's
+// lag at rest: the carriage's 1 N of friction (1 N/gear/T' = 2.2e-4 rad) and the detent's pull
+// (at most Σ Kdh/T' <= (3.15 N·m/rad/Nr)/T' = 2.2e-3 rad): 2.5e-3 rad (16 µm; measured 5e-4).
+TEST(Runner, CableAxisTakesItsProfileInMillimetres) {
+  const std::string cable = MJSTEPPER_SOURCE_DIR "/models/cable_axis.xml";
+  const auto mm = TempDir() / "cable_mm.csv", rad = TempDir() / "cable_rad.csv";
+  const std::string speed = fmt::format("{:.17g}", 157.08 * (100 * 1e-3));  // rad/s
+  Result r = RunCli("run " + cable +
+                    " --duration 0.4 --quiet --ctrl 'capstan=trapezoid(100mm/s, 0.05s, 0.2s, "
+                    "0.05s)' --log " +
+                    mm.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = RunCli("run " + cable + " --duration 0.4 --quiet --ctrl 'capstan=trapezoid(" + speed +
+             "rad/s, 0.05s, 0.2s, 0.05s)' --log " + rad.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(FileText(mm), FileText(rad));
+  const double theta0 = 157.08 * 0.05;  // rad: the cable's length at qpos0 is 0.05 m
+  EXPECT_NEAR(LastValue(mm, "capstan:theta[rad]") - theta0, 157.08 * 0.025, 2.5e-3);
+  EXPECT_EQ(LastValue(mm, "capstan:lost_steps[full steps]"), 0);
+  // On a slide joint (the same axis with the stepper on the carriage's joint, gear 157.08 rad/m)
+  // too: at 100 mm/s the rotor turns gear·0.1 m/s·t (t the last row's time, the last step's
+  // start), less its lag behind the command after the start's jolt (load angle/Nr: measured
+  // 2.3e-3 rad, at most 1.5/50 = 3e-2 rad in the jolt): 1e-2 rad (a unit off by 10³: 1.6e3 rad).
+  std::string text = FileText(cable);
+  text.replace(text.find(R"(tendon="cable")"), 14, R"(joint="carriage")");
+  const auto slide = TempDir() / "slide_axis.xml";
+  std::ofstream(slide) << text;
+  const auto slide_csv = TempDir() / "slide.csv";
+  r = RunCli("run " + slide.string() +
+             " --duration 0.1 --quiet --ctrl 'capstan=constant(100mm/s)' --log " +
+             slide_csv.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NEAR(LastValue(slide_csv, "capstan:theta[rad]"),
+              157.08 * 0.1 * LastValue(slide_csv, "time[s]"), 1e-2);
+  // On a hinge a length is refused, naming the actuator, what it drives and the unit.
+  r = RunCli("run " + kModel + " --duration 0.01 --ctrl 'shaft=constant(10mm/s)'");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, AllOf(HasSubstr("actuator 'shaft' drives hinge joint"),
+                              HasSubstr("is in mm/s, a linear unit")));
+}
+
+// A load actuator on the cable (--load sets its force, N along the tendon, as plugin/README.md's
+// load torque): the rotor holding the carriage where it starts (constant(50mm): the cable's
+// length at qpos0) delivers τl/gear at rest, torque_total = F/157.08 (static balance, the
+// detent's torque included). 1e-7 N·m: the carriage's ringing has died out (slide damping
+// 300 N·s/m) to 1e-8 N·m measured.
+TEST(Runner, LoadOnATendonIsHeldByTheRotor) {
+  std::string text = FileText(MJSTEPPER_SOURCE_DIR "/models/cable_axis.xml");
+  text.replace(text.find(R"(frictionloss="1")"), 16, R"(damping="300")");
+  text.replace(text.find("  </actuator>"), 0,
+               R"(<general name="load" tendon="cable" gainprm="0" biastype="affine" )"
+               R"(biasprm="0 0 0"/>)");
+  const auto model = TempDir() / "cable_load.xml";
+  std::ofstream(model) << text;
+  const auto csv = TempDir() / "cable_load.csv";
+  for (double force : {10.0, -20.0}) {  // N
+    const Result r = RunCli("run " + model.string() +
+                            " --duration 0.3 --quiet --set capstan.input=position --ctrl "
+                            "'capstan=constant(50mm)' --load load=" +
+                            fmt::format("{}", force) + " --log " + csv.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NEAR(LastValue(csv, "capstan:torque_total[N·m]"), force / 157.08, 1e-7) << force;
+    EXPECT_EQ(LastValue(csv, "capstan:lost_steps[full steps]"), 0) << force;
+  }
+}
+
+// info on tendon steppers: the rotor-side inertia from the moment row r, the dofs it moves free
+// and the others held, J = 1/(r·M⁻¹·rᵀ). The cable axis (one dof): J_r + m/gear² = 0.36e-4 +
+// 0.5/157.08² = 5.626e-5 kg·m². A tendon over two dofs: carriage b (1.5 kg) rides on carriage a
+// (0.5 kg), x2 relative to x1, and the tendon x1 + x2 is b's own position (gear 100): the
+// cheapest way to move it leaves a still, so J = J_r + m_b/gear² = 0.36e-4 + 1.5e-4 =
+// 1.86e-4 kg·m² (the held-others diagonal would give J_r + (m_a + m_b)/gear² = 2.36e-4).
+TEST(Runner, InfoGivesTheInertiaATendonStepperMoves) {
+  const Result cable = RunCli("info " MJSTEPPER_SOURCE_DIR "/models/cable_axis.xml");
+  ASSERT_EQ(cable.status, 0) << cable.output;
+  EXPECT_THAT(cable.output, HasSubstr("J = 5.626e-05 kg·m²"));
+  const auto path = TempDir() / "differential.xml";
+  {
+    std::ofstream out(path);
+    out << R"(<mujoco><option timestep="5e-5" integrator="implicitfast"/>
+  <extension><plugin plugin="mjstepper.stepper"/></extension>
+  <worldbody>
+    <body name="a"><joint name="x1" type="slide" axis="1 0 0"/>
+      <inertial pos="0 0 0" mass="0.5" diaginertia="1e-4 1e-4 1e-4"/>
+      <body name="b" pos="0 1 0"><joint name="x2" type="slide" axis="1 0 0"/>
+        <inertial pos="0 0 0" mass="1.5" diaginertia="1e-4 1e-4 1e-4"/></body></body>
+  </worldbody>
+  <tendon><fixed name="sum"><joint joint="x1" coef="1"/><joint joint="x2" coef="1"/></fixed></tendon>
+  <actuator><plugin name="drive" tendon="sum" gear="100" plugin="mjstepper.stepper" armature="0.36e-4">
+    <config key="input" value="velocity"/></plugin></actuator>
+</mujoco>)";
+  }
+  const Result differential = RunCli("info " + path.string());
+  ASSERT_EQ(differential.status, 0) << differential.output;
+  EXPECT_THAT(differential.output, HasSubstr("J = 0.000186 kg·m²"));
+  // The model's highest mode with the holding stiffness T'·rᵀr over both dofs (rank one): its
+  // only non-zero ω² is T'·r·M⁻¹·rᵀ = T'/J, the same 62.30 Hz (28.5/1.86e-4 rad²/s²).
+  EXPECT_THAT(differential.output, AllOf(HasSubstr("fn = (1/2π)·√(T'/J) = 62.30 Hz"),
+                                         HasSubstr("mode 1 at 62.30 Hz: stepper 'drive' 100 %")));
+}
+
 // info on the compliant coupling: the stepper's own frequency with the load held rigidly
 // (√(T'/(J_r + J_l)) = 81.76 Hz) and the model's modes, the two-mass closed form's (72.2 and
 // 260.0 Hz for T' = 28.5, k = 50, J_r = 0.36e-4, J_l = 0.72e-4); the fast one, with the detent's
@@ -410,6 +523,44 @@ TEST(PullOut, WritesCsvAndPngAndNamesBadOptions) {
   r = RunCli("pullout " + kModel + " --speeds 50rpm --rate -1 --quiet --out " + prefix.string());
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.output, HasSubstr("--rate: -1 is not in [0.001, 10000] N·m/s"));
+}
+
+// Pull-out through a tendon: the load is τ·r on the dofs the tendon moves (r its moment row). The
+// cable axis with its cable as a fixed tendon L = 2x and half the gear (78.54 rad/m, moment
+// 157.08 rad/m) has the pull-out torques of the same axis on a joint transmission (gear 157.08 on
+// the slide): within 1e-3 (measured 3e-4 at 50 r/min, 0 at 300 r/min: the armature reflected as
+// J·gear²·c² rather than J·(gear·c)² rounds differently, and near the slip that moves the first
+// counted slip by a few steps of the load ramp). A load put on the gear alone would double them.
+TEST(PullOut, ThroughATendonEqualsTheJointEquivalent) {
+  std::string text = FileText(MJSTEPPER_SOURCE_DIR "/models/cable_axis.xml");
+  std::string joint = text;
+  joint.replace(joint.find(R"(tendon="cable" gear="157.08")"), 28,
+                R"(joint="carriage" gear="157.08")");
+  const size_t begin = text.find("<spatial name=\"cable\"");
+  const size_t end = text.find("</spatial>") + 10;
+  text.replace(begin, end - begin,
+               R"(<fixed name="cable"><joint joint="carriage" coef="2"/></fixed>)");
+  text.replace(text.find(R"(gear="157.08")"), 13, R"(gear="78.54")");
+  std::vector<std::vector<double>> torques;
+  for (const auto& [name, xml] : {std::pair{"joint", joint}, std::pair{"tendon", text}}) {
+    const auto model = TempDir() / (std::string(name) + "_axis.xml");
+    std::ofstream(model) << xml;
+    const auto prefix = TempDir() / (std::string("pullout_") + name);
+    const Result r = RunCli("pullout " + model.string() + " --speeds 50,300rpm --quiet --out " +
+                            prefix.string());
+    ASSERT_EQ(r.status, 0) << name << ": " << r.output;
+    std::ifstream csv(prefix.string() + ".csv");
+    std::string line;
+    std::getline(csv, line);
+    torques.emplace_back();
+    while (std::getline(csv, line)) torques.back().push_back(std::stod(Split(line).at(2)));
+  }
+  ASSERT_EQ(torques[0].size(), 2u);
+  ASSERT_EQ(torques[1].size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_GT(torques[0][k], 0.5);  // N·m: near Km·I = 0.57 at these speeds
+    EXPECT_NEAR(torques[1][k], torques[0][k], 1e-3 * torques[0][k]) << "speed " << k;
+  }
 }
 
 // The arm's pick move (base +0.5, shoulder −0.6, elbow +0.8 rad at the joints; the drives' own
