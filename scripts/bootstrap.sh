@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # Installs what mjstepper needs and is missing; does nothing when everything is there.
-#   Debian packages (only when root): compiler, CMake, Ninja, Eigen, GoogleTest, Google Benchmark,
+#   Debian packages (only when root): compiler, CMake, Ninja, ccache, Eigen, GoogleTest, Google Benchmark,
 #   CLI11, fmt, OSMesa, ffmpeg; Xvfb, xwd and Mesa's GL for the test of MuJoCo's viewer.
 #   A project-local virtual environment .venv with requirements.txt (the pinned mujoco wheel).
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
 # Why each package is here: see README.md, "Dependencies".
-packages=(g++ cmake ninja-build pkg-config python3-venv libeigen3-dev libgtest-dev libgmock-dev
+packages=(g++ cmake ninja-build ccache pkg-config python3-venv libeigen3-dev libgtest-dev libgmock-dev
           libbenchmark-dev libcli11-dev libfmt-dev libtinyxml2-dev libosmesa6-dev libpng-dev
           ffmpeg xvfb xauth x11-apps libgl1 libglx-mesa0 libgl1-mesa-dri
           # clang and its runtimes (libFuzzer, ASan, UBSan): the config fuzzer, tests/fuzz/run.sh

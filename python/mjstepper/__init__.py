@@ -9,6 +9,16 @@ was built against), after which MJCF models may use `mjstepper.stepper` actuator
     model = spec.compile(); data = mujoco.MjData(model)
     mujoco.mj_step(model, data)
     mjstepper.signals(model, data, "shaft")["current_a"]   # (value, "A")
+
+The command's experiments, computed by the same C++ engine, with results as Tables (NumPy records
+with named columns and `.units`):
+
+    table = mjstepper.sweep("models/tsui_rigid.xml", "10:200:2.5rpm")
+    table.speed, table.rms_error, table.units["rms_error"]          # rad/s
+    mjstepper.run("models/tsui_rigid.xml", 0.8, ctrl={"shaft": "ramp(0rpm,200rpm,0.8s)"})
+
+and the same on Ray: mjstepper.distributed.sweep and .map. `mjstepper` on the command line (or
+`python -m mjstepper`) is the command.
 """
 import difflib
 import functools
@@ -16,6 +26,7 @@ import math
 import numbers
 import operator
 import os
+import sys
 
 import mujoco
 import numpy as np
@@ -261,4 +272,11 @@ class StepTimes:
         return np.where(i > 0, self.counts[np.maximum(i - 1, 0)], 0.0)[()]
 
 
-from ._sweep import resonance_map, sweep  # noqa: E402,F401  (Ray is imported only when run)
+# The experiments (run, sweep, map, pullout, identify, resonance_test) over the C++ engine, which
+# finds this package's plugin library, and plots with this interpreter and the package's script.
+from . import _engine  # noqa: E402
+_engine.set_installation(LIBRARY, sys.executable,
+                         os.path.join(os.path.dirname(os.path.abspath(__file__)), "_plot.py"))
+from ._experiments import (  # noqa: E402,F401
+    Identified, ResonanceTest, RunResult, Table, identify, map, pullout, resonance_test, run,
+    sweep)

@@ -33,7 +33,8 @@ const char* kSetHelp =
 
 }  // namespace
 
-CommandLine::CommandLine() : app_("mjstepper: stepper motors and their drives on MuJoCo joints") {
+CommandLine::CommandLine(bool out_optional)
+    : app_("mjstepper: stepper motors and their drives on MuJoCo joints") {
   app_.require_subcommand(1);
   Command& c = c_;
 
@@ -108,7 +109,8 @@ CommandLine::CommandLine() : app_("mjstepper: stepper motors and their drives on
                     "within ±1e4 rad/s, at most 1e5 speeds")
         ->required();
     sub->add_option("--actuator", *actuator, "the stepper (default: the only one)");
-    sub->add_option("--out", c.out, "output prefix: writes PREFIX.csv and PREFIX.png")->required();
+    sub->add_option("--out", c.out, "output prefix: writes PREFIX.csv and PREFIX.png")
+        ->required(!out_optional);
     if (sub != pullout_) {
       sub->add_option("--settle", so->settle, "s after reaching speed before measuring")
           ->default_val(so->settle)
@@ -301,7 +303,7 @@ void CommandLine::Check() {
       const double runs = static_cast<double>(c.map.values.size() * so.speeds.size());
       RequireInRange("--speeds × --vary", Range("speeds"), runs, fmt::format("{:g} runs", runs));
     }
-    c.outputs = {c.out + ".csv", c.out + ".png"};  // --out PREFIX
+    if (!c.out.empty()) c.outputs = {c.out + ".csv", c.out + ".png"};  // --out PREFIX
     return;
   }
   if (*pullout_) {
@@ -315,7 +317,7 @@ void CommandLine::Check() {
           "simulated time per speed",
           c.pullout.max_torque, c.pullout.rate, c.pullout.max_torque / c.pullout.rate));
     }
-    c.outputs = {c.out + ".csv", c.out + ".png"};  // --out PREFIX
+    if (!c.out.empty()) c.outputs = {c.out + ".csv", c.out + ".png"};  // --out PREFIX
     return;
   }
   if (*identify_) {

@@ -56,7 +56,9 @@ void CheckOutputs(const Command& command);
 
 class CommandLine {
  public:
-  CommandLine();
+  /// `out_optional`: sweep, map and pull-out compute without --out (the Python package returns
+  /// their results; the command writes them, so there --out is required).
+  explicit CommandLine(bool out_optional = false);
   CommandLine(const CommandLine&) = delete;
   CommandLine& operator=(const CommandLine&) = delete;
 

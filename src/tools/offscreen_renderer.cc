@@ -1,11 +1,13 @@
 #include "offscreen_renderer.h"
 
 #include <GL/osmesa.h>
+#include <dlfcn.h>
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <stdexcept>
 
@@ -67,6 +69,45 @@ void FrameBodies(const mjModel* m, const BodyBounds& bounds, double aspect, mjvC
   camera->distance = 1.1 * distance;  // 10 % to spare around the bodies
 }
 
+namespace {
+
+// OSMesa, loaded when the first renderer is made rather than linked: the command and the Python
+// package run without it, and only rendering says it is missing. Loaded RTLD_GLOBAL, so that
+// MuJoCo's GL loader finds OSMesaGetProcAddress in the process, as when it was linked.
+struct OsMesa {
+  decltype(&OSMesaCreateContextExt) create_context = nullptr;
+  decltype(&OSMesaMakeCurrent) make_current = nullptr;
+  decltype(&OSMesaDestroyContext) destroy_context = nullptr;
+};
+
+const OsMesa& LoadOsMesa() {
+  static const OsMesa* const loaded = []() -> const OsMesa* {
+    const char* name = std::getenv("MJSTEPPER_OSMESA");  // another build of it, e.g. conda's
+    void* library = dlopen(name != nullptr && name[0] != '\0' ? name : "libOSMesa.so.8",
+                           RTLD_NOW | RTLD_GLOBAL);
+    if (library == nullptr) return nullptr;
+    static OsMesa f;
+    f.create_context =
+        reinterpret_cast<decltype(f.create_context)>(dlsym(library, "OSMesaCreateContextExt"));
+    f.make_current =
+        reinterpret_cast<decltype(f.make_current)>(dlsym(library, "OSMesaMakeCurrent"));
+    f.destroy_context =
+        reinterpret_cast<decltype(f.destroy_context)>(dlsym(library, "OSMesaDestroyContext"));
+    if (!f.create_context || !f.make_current || !f.destroy_context) return nullptr;
+    return &f;
+  }();
+  if (loaded == nullptr) {
+    throw std::runtime_error(
+        "rendering needs OSMesa (libOSMesa.so.8, Mesa's off-screen software GL), which this "
+        "machine lacks or cannot load ($MJSTEPPER_OSMESA names another); install it (Debian and "
+        "Ubuntu: apt-get install "
+        "libosmesa6) and run again; everything but --render and --frames works without it");
+  }
+  return *loaded;
+}
+
+}  // namespace
+
 // Owns what it has made, and frees exactly that, on destruction and when the renderer's
 // constructor throws halfway (OSMesaMakeCurrent failing, no offscreen framebuffer): neither the GL
 // context nor MuJoCo's scene and GL objects leak. (A bad camera or size throws before any is made.)
@@ -91,7 +132,7 @@ struct OffscreenRenderer::Context {
     if (render_made) mjr_freeContext(&render);  // needs its GL context, still current here
     if (scene_made) mjv_freeScene(&scene);
     if (sized_model != nullptr) mj_deleteModel(sized_model);
-    if (osmesa != nullptr) OSMesaDestroyContext(osmesa);
+    if (osmesa != nullptr) LoadOsMesa().destroy_context(osmesa);
   }
   Context(const Context&) = delete;
   Context& operator=(const Context&) = delete;
@@ -113,10 +154,11 @@ OffscreenRenderer::OffscreenRenderer(const mjModel* m, const RendererOptions& op
   context_ = std::make_unique<Context>();
   Context& c = *context_;
   // 1. A software GL context, made current before MuJoCo creates its GL objects.
-  c.osmesa = OSMesaCreateContextExt(OSMESA_RGBA, 24, 8, 0, nullptr);
+  const OsMesa& osmesa = LoadOsMesa();
+  c.osmesa = osmesa.create_context(OSMESA_RGBA, 24, 8, 0, nullptr);
   if (c.osmesa == nullptr) throw std::runtime_error("OSMesaCreateContextExt failed");
   c.window.resize(64 * 64 * 4);
-  if (!OSMesaMakeCurrent(c.osmesa, c.window.data(), GL_UNSIGNED_BYTE, 64, 64)) {
+  if (!osmesa.make_current(c.osmesa, c.window.data(), GL_UNSIGNED_BYTE, 64, 64)) {
     throw std::runtime_error("OSMesaMakeCurrent failed");
   }
   // 2. MuJoCo's offscreen framebuffer is sized from the model's visual/global: use a copy sized to

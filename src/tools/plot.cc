@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "installation.h"
 #include "output_file.h"
 #include "subprocess.h"
 
@@ -12,7 +13,7 @@ namespace mjstepper::tools {
 
 std::string PlotProgram() {
   const char* python = std::getenv("MJSTEPPER_PYTHON");
-  return FindProgram(python ? python : MJSTEPPER_PYTHON, "plotting",
+  return FindProgram(python ? python : GetInstallation().python, "plotting",
                      "run scripts/bootstrap.sh, or set MJSTEPPER_PYTHON to a Python with "
                      "matplotlib");
 }
@@ -22,7 +23,7 @@ void Plot(const std::string& kind, const std::vector<std::string>& csvs,
           bool versus_speed) {
   // No shell: each path and label is one argument. A path beginning with '-' is made relative
   // ("./-x") so that the script's argument parser cannot read it as an option; a label cannot be.
-  std::vector<std::string> argv = {PlotProgram(), MJSTEPPER_PLOT_SCRIPT, kind};
+  std::vector<std::string> argv = {PlotProgram(), GetInstallation().plot_script, kind};
   for (const std::string& csv : csvs) argv.push_back(csv.starts_with('-') ? "./" + csv : csv);
   if (!labels.empty()) {
     argv.push_back("--labels");

@@ -17,6 +17,7 @@
 
 #include "config.h"
 #include "core/units.h"
+#include "installation.h"
 #include "stepper.h"
 
 namespace mjstepper::tools {
@@ -70,19 +71,25 @@ void WarnOnce(const char* message) {
   if (seen.insert(message).second) std::fprintf(stderr, "warning: %s\n", message);
 }
 
+// $MJSTEPPER_PLUGIN, else the installation's library.
+std::string PluginPath() {
+  const char* env = std::getenv("MJSTEPPER_PLUGIN");
+  return env != nullptr && env[0] != '\0' ? env : GetInstallation().plugin_library;
+}
+
 }  // namespace
 
 void LoadPluginLibrary() {
   static const bool loaded = [] {
     mju_user_warning = WarnOnce;
-    const char* env = std::getenv("MJSTEPPER_PLUGIN");
-    mj_loadPluginLibrary(env != nullptr && env[0] != '\0' ? env : MJSTEPPER_PLUGIN_PATH);
+    // Loaded once per process: the Python package has loaded it already at import.
+    if (StepperSlot() < 0) mj_loadPluginLibrary(PluginPath().c_str());
     return true;
   }();
   (void)loaded;
   if (StepperSlot() < 0) {
     throw std::runtime_error(fmt::format("plugin {} not registered after loading {}",
-                                         plugin::kPluginName, MJSTEPPER_PLUGIN_PATH));
+                                         plugin::kPluginName, PluginPath()));
   }
 }
 

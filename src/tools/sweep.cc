@@ -250,8 +250,10 @@ std::vector<PullOutPoint> PullOut(const PullOutOptions& o, std::ostream& progres
 }
 
 void WritePullOutCsv(const std::string& path, const std::vector<PullOutPoint>& points) {
-  CsvWriter csv(path, {"speed[r/min]", "speed[rad/s]", "pull_out_torque[N·m]",
-                       "slipped_before_load[1/0]", "held_max_torque[1/0]"});
+  CsvWriter csv(path,
+                {"speed[r/min]", "speed[rad/s]", "pull_out_torque[N·m]",
+                 "slipped_before_load[1/0]", "held_max_torque[1/0]"},
+                17);  // every digit, as the sweep's
   for (const PullOutPoint& p : points) {
     const double row[] = {RadPerSecToRpm(p.speed), p.speed, p.torque,
                           p.slipped_unloaded ? 1.0 : 0.0, p.held_max ? 1.0 : 0.0};

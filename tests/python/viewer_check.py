@@ -2,8 +2,6 @@
 xvfb-run): the viewer runs the model, and a frame grabbed from the screen shows the drive's gauge,
 whose rotor arrow is the only magenta in the scene; with gauge="off" there is none.
     viewer_check.py PLUGIN SOURCE_DIR"""
-import struct
-import subprocess
 import sys
 import threading
 import time
@@ -12,16 +10,9 @@ import unittest
 import mujoco
 import mujoco.viewer
 
+from xscreen import count_pixels, grab_screen
+
 PLUGIN, SOURCE = sys.argv[1], sys.argv[2]
-
-
-def grab_screen():
-    """(width, height, bytes per line, BGRX pixels) of the X root window, from xwd's dump."""
-    raw = subprocess.run(["xwd", "-root", "-silent"], capture_output=True, check=True).stdout
-    header = struct.unpack(">25I", raw[:100])
-    header_size, width, height, bytes_per_line, ncolors = (header[0], header[4], header[5],
-                                                          header[12], header[19])
-    return width, height, bytes_per_line, raw[header_size + 12 * ncolors:]
 
 
 def magenta_pixels(gauge):
@@ -40,19 +31,13 @@ def magenta_pixels(gauge):
             time.sleep(0.002)
         time.sleep(1.0)  # let the render thread draw the last state
         running = viewer.is_running()
-        width, height, bytes_per_line, pixels = grab_screen()
+        screen = grab_screen()
     # close() only asks the viewer's (daemon) thread to stop: wait until it has destroyed its
     # window, or it may still be doing so when glfw.terminate runs at exit (a segfault in GLFW).
     for thread in threading.enumerate():
         if thread is not threading.main_thread():
             thread.join(timeout=30)
-    count = 0
-    for y in range(0, height, 2):
-        row = pixels[y * bytes_per_line:(y + 1) * bytes_per_line]
-        for x in range(0, width, 2):
-            b, g, r = row[4 * x], row[4 * x + 1], row[4 * x + 2]
-            if r > 120 and b > 120 and g < 0.5 * min(r, b):
-                count += 1
+    count = count_pixels(screen, lambda r, g, b: r > 120 and b > 120 and g < 0.5 * min(r, b))
     return running, count, data.qpos[0]
 
 

@@ -1,6 +1,8 @@
 """Run inside a fresh virtual environment where only the mjstepper wheel (and what it requires) is
-installed: import, signals by name, presets, the library's run-time needs, the version check, the
-checks of every argument (issue 16), and the Ray sweep and map against the C++ ones."""
+installed: import, signals by name, presets, the libraries' run-time needs, the version check, the
+command, the experiments against the command's to the bit (Python and Ray), and the checks of
+every argument (issue 16)."""
+import csv
 import math
 import os
 import stat
@@ -14,10 +16,13 @@ import mujoco
 import numpy as np
 
 import mjstepper
+import mjstepper.distributed
 
 SOURCE = sys.argv[1]
-CPP_SWEEP = sys.argv[2]  # `mjstepper sweep` of the same grid, every digit
-CPP_MAP = sys.argv[3]  # `mjstepper map` of the coupling model, every digit
+CLI = sys.argv[2]  # the build tree's mjstepper command
+MJSTEPPER = os.path.join(os.path.dirname(sys.executable), "mjstepper")  # the wheel's
+RIGID = os.path.join(SOURCE, "models", "tsui_rigid.xml")
+COUPLING = os.path.join(SOURCE, "models", "tsui_coupling.xml")
 
 
 class WheelInAFreshEnvironment(unittest.TestCase):
@@ -107,9 +112,22 @@ class WheelInAFreshEnvironment(unittest.TestCase):
         needed = [line.split("[")[1].rstrip("]") for line in dynamic.splitlines()
                   if "(NEEDED)" in line]
         self.assertIn(f"libmujoco.so.{mujoco.__version__}", needed)
+        runtimes = ("libmujoco", "libstdc++", "libm.", "libgcc_s", "libc.", "ld-linux")
         for library in needed:  # C and C++ runtimes, and MuJoCo: no Debian library (libfmt)
-            self.assertTrue(library.startswith(("libmujoco", "libstdc++", "libm.", "libgcc_s",
-                                                "libc.")), library)
+            self.assertTrue(library.startswith(runtimes), library)
+        # The engine (the command and the experiments) needs Debian's tinyxml2 and libpng besides
+        # (README, "The Python package"), and loads OSMesa only to render.
+        engine = os.path.join(os.path.dirname(mjstepper.LIBRARY),
+                              next(f for f in os.listdir(os.path.dirname(mjstepper.LIBRARY))
+                                   if f.startswith("_engine")))
+        dynamic = subprocess.run(["readelf", "-d", engine], capture_output=True, text=True,
+                                 check=True).stdout
+        needed = [line.split("[")[1].rstrip("]") for line in dynamic.splitlines()
+                  if "(NEEDED)" in line]
+        self.assertIn(f"libmujoco.so.{mujoco.__version__}", needed)
+        for library in needed:
+            self.assertTrue(library.startswith(runtimes + ("libtinyxml2", "libpng16", "libz")),
+                            library)
 
     def test_refuses_another_mujoco_naming_both_versions(self):
         code = "import mujoco; mujoco.__version__ = '3.9.9'; import mjstepper"
@@ -119,53 +137,241 @@ class WheelInAFreshEnvironment(unittest.TestCase):
         self.assertIn(mujoco.__version__, result.stderr)
 
 
-class RaySweep(unittest.TestCase):
-    def test_matches_the_cpp_sweep_on_a_local_ray(self):
-        """mjstepper.sweep on a local Ray instance (2 CPUs) gives the C++ sweep's rows to
-        1e-12 (relative, or absolute below 1), and writes them as CSV with the same header."""
-        import csv
-        import ray
-        with open(CPP_SWEEP) as f:
-            cpp = list(csv.reader(f))
-        speeds = [float(row[1]) for row in cpp[1:]]  # rad/s, exactly the C++ grid
-        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
-        try:
-            out = os.path.join(os.getcwd(), "ray_sweep.csv")
-            rows = mjstepper.sweep(os.path.join(SOURCE, "models", "tsui_rigid.xml"), speeds,
-                               settle=0.2, measure=0.2, out=out, progress=False)
-        finally:
-            ray.shutdown()
-        self.assertEqual(len(rows), len(speeds))
-        for row, expected in zip(rows, cpp[1:]):
-            for got, want in zip(row, expected):
-                self.assertLessEqual(abs(got - float(want)), 1e-12 * max(1.0, abs(float(want))))
-        with open(out) as f:
-            written = list(csv.reader(f))
-        self.assertEqual(written[0], cpp[0])
-        self.assertEqual(len(written), len(cpp))
-        self.assertFalse(os.path.exists(out + ".tmp"))
-        # Not a degenerate grid: the resonances ripple more than their neighbours.
-        self.assertGreater(max(r[3] for r in rows), 2 * min(r[3] for r in rows))
+def read(path):
+    with open(path, "rb") as f:
+        return f.read()
 
-    def test_map_matches_the_cpp_map_on_a_local_ray(self):
-        """mjstepper.resonance_map on a local Ray gives `mjstepper map`'s rows to 1e-12."""
-        import csv
+
+def csv_column(path, name):
+    """A CSV column as floats (17 digits: each the double written, exactly)."""
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    k = rows[0].index(name)
+    return [float(row[k]) for row in rows[1:]]
+
+
+class TheCommand(unittest.TestCase):
+    """Issue 19 item 2: `pip install` gives the `mjstepper` command, every subcommand."""
+
+    def command(self, *args, env=None):
+        return subprocess.run([MJSTEPPER, *args], capture_output=True, text=True,
+                              env={**os.environ, **(env or {})})
+
+    def test_every_subcommand_is_there(self):
+        self.assertEqual(os.path.dirname(MJSTEPPER), os.path.dirname(sys.executable))
+        result = self.command("--help")
+        self.assertEqual(result.returncode, 0, result.stderr)
+        for sub in ("run", "sweep", "map", "pullout", "identify", "resonance-test", "plot",
+                    "info", "tables"):
+            self.assertIn(sub, result.stdout)
+        info = self.command("info", RIGID)
+        self.assertEqual(info.returncode, 0, info.stderr)
+        self.assertIn("T(1) = 28.5 N·m/rad", info.stdout)
+        module = subprocess.run([sys.executable, "-m", "mjstepper", "info", RIGID],
+                                capture_output=True, text=True)
+        self.assertEqual(module.stdout, info.stdout)
+        bad = self.command("sweep", RIGID, "--speeds", "40rpm", "--settle", "-1", "--out", "x")
+        self.assertNotEqual(bad.returncode, 0)
+        self.assertIn("--settle", bad.stderr)
+
+    def test_plots_with_the_packages_matplotlib_and_renders_with_osmesa(self):
+        out = os.path.join(os.getcwd(), "command")
+        result = self.command("run", RIGID, "--duration", "0.05", "--quiet", "--ctrl",
+                              "shaft=constant(60rpm)", "--log", out + ".csv", "--plot",
+                              out + ".png", "--render", out + ".mp4", "--size", "320x240",
+                              "--fps", "20")
+        self.assertEqual(result.returncode, 0, result.stderr)
+        self.assertEqual(read(out + ".png")[:8], b"\x89PNG\r\n\x1a\n")
+        self.assertGreater(os.path.getsize(out + ".mp4"), 1000)
+
+    def test_render_without_osmesa_says_what_to_install(self):
+        video = os.path.join(os.getcwd(), "no_osmesa.mp4")
+        result = self.command("run", RIGID, "--duration", "0.05", "--quiet", "--render", video,
+                              env={"MJSTEPPER_OSMESA": "libOSMesa-missing.so"})
+        self.assertNotEqual(result.returncode, 0)
+        self.assertIn("rendering needs OSMesa", result.stderr)
+        self.assertIn("apt-get install libosmesa6", result.stderr)
+        self.assertFalse(os.path.exists(video))
+        # Everything else runs without it.
+        result = self.command("run", RIGID, "--duration", "0.05", "--quiet",
+                              env={"MJSTEPPER_OSMESA": "libOSMesa-missing.so"})
+        self.assertEqual(result.returncode, 0, result.stderr)
+
+
+class OneEngine(unittest.TestCase):
+    """Issue 19 item 1: the command line (the build tree's and the wheel's), Python and Ray give
+    the same results, to the bit, on the same inputs: the same files byte for byte, and the
+    Tables' doubles equal to the CSVs' (written with 17 digits, which read back exactly)."""
+
+    def cli(self, *args):
+        for program in (CLI, MJSTEPPER):  # the build tree's command, and the wheel's
+            result = subprocess.run([program, *args], capture_output=True, text=True)
+            self.assertEqual(result.returncode, 0, result.stderr)
+        return result
+
+    def test_sweep(self):
+        base = os.path.join(os.getcwd(), "sweep")
+        self.cli("sweep", RIGID, "--speeds", "40,45,85,170rpm", "--settle", "0.2", "--measure",
+                 "0.2", "--quiet", "--out", base + "_cli")
+        table = mjstepper.sweep(RIGID, "40,45,85,170rpm", settle=0.2, measure=0.2,
+                                out=base + "_py")
+        self.assertEqual(read(base + "_py.csv"), read(base + "_cli.csv"))
+        self.assertEqual(table.speed.tolist(), csv_column(base + "_cli.csv", "speed[rad/s]"))
+        self.assertEqual(table.units["rms_error"], "rad/s")
+        self.assertEqual(table.dominant_frequency.tolist(),
+                         csv_column(base + "_cli.csv", "dominant_frequency[Hz]"))
+        # Not a degenerate grid: the resonances ripple more than their neighbours.
+        self.assertGreater(table.rms_error.max(), 2 * table.rms_error.min())
         import ray
-        with open(CPP_MAP) as f:
-            cpp = list(csv.reader(f))
-        values = sorted({float(row[0]) for row in cpp[1:]})
-        speeds = sorted({float(row[2]) for row in cpp[1:]})
         ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
         try:
-            rows = mjstepper.resonance_map(os.path.join(SOURCE, "models", "tsui_coupling.xml"),
-                                           speeds, "stiffness:coupling", values, settle=0.2,
-                                           measure=0.2, progress=False)
+            on_ray = mjstepper.distributed.sweep(RIGID, table.speed, settle=0.2, measure=0.2,
+                                                 out=base + "_ray", progress=False)
         finally:
             ray.shutdown()
-        self.assertEqual(len(rows), len(cpp) - 1)
-        for row, expected in zip(rows, cpp[1:]):
-            for got, want in zip(row, expected):
-                self.assertLessEqual(abs(got - float(want)), 1e-12 * max(1.0, abs(float(want))))
+        self.assertEqual(read(base + "_ray.csv"), read(base + "_cli.csv"))
+        for name in table.dtype.names:
+            self.assertEqual(on_ray[name].tolist(), table[name].tolist(), name)
+        self.assertFalse(os.path.exists(base + "_ray.csv.tmp"))
+
+    def test_map(self):
+        base = os.path.join(os.getcwd(), "map")
+        self.cli("map", COUPLING, "--speeds", "40,85rpm", "--vary", "stiffness:coupling=20,50",
+                 "--settle", "0.2", "--measure", "0.2", "--quiet", "--out", base + "_cli")
+        vary = ("stiffness:coupling", [20, 50])
+        table = mjstepper.map(COUPLING, "40,85rpm", vary, settle=0.2, measure=0.2,
+                              out=base + "_py")
+        self.assertEqual(read(base + "_py.csv"), read(base + "_cli.csv"))
+        self.assertEqual(table.value.tolist(), [20, 20, 50, 50])
+        self.assertEqual(table.parameter, "stiffness:coupling")
+        import ray
+        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+        try:
+            on_ray = mjstepper.distributed.map(COUPLING, "40,85rpm", vary, settle=0.2,
+                                               measure=0.2, out=base + "_ray", progress=False)
+        finally:
+            ray.shutdown()
+        self.assertEqual(read(base + "_ray.csv"), read(base + "_cli.csv"))
+        for name in table.dtype.names:
+            self.assertEqual(on_ray[name].tolist(), table[name].tolist(), name)
+
+    def test_pullout(self):
+        base = os.path.join(os.getcwd(), "pullout")
+        self.cli("pullout", RIGID, "--speeds", "100,600rpm", "--quiet", "--out", base + "_cli")
+        table = mjstepper.pullout(RIGID, "100,600rpm", out=base + "_py")
+        self.assertEqual(read(base + "_py.csv"), read(base + "_cli.csv"))
+        self.assertEqual(table.torque.tolist(),
+                         csv_column(base + "_cli.csv", "pull_out_torque[N·m]"))
+        self.assertEqual(table.held_max.dtype, np.bool_)
+        self.assertGreater(table.torque[0], 0.3)  # N·m: Km·I = 0.57 at low speed
+
+    def test_run(self):
+        base = os.path.join(os.getcwd(), "run")
+        args = ["--duration", "0.3", "--ctrl", "shaft=ramp(0rpm,150rpm,0.3s)"]
+        self.cli("run", RIGID, *args, "--quiet", "--log", base + "_cli.csv")
+        result = mjstepper.run(RIGID, 0.3, ctrl={"shaft": "ramp(0rpm,150rpm,0.3s)"},
+                               log=base + "_py.csv")
+        self.assertEqual(read(base + "_py.csv"), read(base + "_cli.csv"))
+        self.assertEqual(result.steps, 6000)
+        self.assertEqual(result.steppers.name.tolist(), ["shaft"])
+        trace = result.traces["shaft"]
+        self.assertEqual(len(trace), 6000)
+        self.assertEqual(trace.units["current_a"], "A")
+        self.assertAlmostEqual(float(trace.omega_cmd[-1]), 150 * 2 * math.pi / 60 * (1 - 1 / 6000),
+                               places=9)
+
+    def test_identify(self):
+        bench = os.path.join(SOURCE, "models", "tsui_identify.xml")
+        printed = self.cli("identify", bench, "--speeds", "10,30rpm").stdout
+        identified = mjstepper.identify(bench, "10,30rpm")
+        self.assertIn(f'<config key="damping_detent" value="{identified.damping_detent}"/>',
+                      printed)
+        self.assertEqual(identified.harmonics.order.tolist(), [4, 2, 1])
+
+    def test_resonance_test(self):
+        base = os.path.join(os.getcwd(), "resonance")
+        printer = os.path.join(SOURCE, "models", "corexy.xml")
+        args = ["--axis", "x", "--min-freq", "30", "--max-freq", "90", "--hz-per-sec", "6"]
+        self.cli("resonance-test", printer, *args, "--quiet", "--out", base + "_cli")
+        r = mjstepper.resonance_test(printer, "x", base + "_py", min_freq=30, max_freq=90,
+                                     hz_per_sec=6)
+        for suffix in ("_raw.csv", "_psd.csv"):
+            self.assertEqual(read(base + "_py" + suffix), read(base + "_cli" + suffix), suffix)
+        self.assertEqual(len(r.fits), 6)
+        self.assertIn(r.recommended, r.fits.shaper.tolist())
+
+
+class Arguments(unittest.TestCase):
+    """Every argument goes through the command's own parser and checks (issue 16): a bad one is
+    refused before any work, naming the option, its value and its bound."""
+
+    def assertRejects(self, error, words, function=None, *args, **options):
+        with mock.patch.dict(sys.modules, {"ray": None}):  # a run would need Ray: none starts
+            with self.assertRaises(error) as ctx:
+                (function or mjstepper.sweep)(*args, **options)
+        for word in words:
+            self.assertIn(word, str(ctx.exception))
+
+    def test_numbers_name_the_option_and_its_range(self):
+        sweep = mjstepper.sweep
+        self.assertRejects(ValueError, ["--settle", "-1", "[0, 60] s"], sweep, RIGID, "40rpm",
+                           settle=-1)
+        self.assertRejects(ValueError, ["--measure", "61"], sweep, RIGID, "40rpm", measure=61)
+        self.assertRejects(ValueError, ["--measure", "nan"], sweep, RIGID, "40rpm",
+                           measure=math.nan)
+        self.assertRejects(TypeError, ["measure = '0.5'"], sweep, RIGID, "40rpm", measure="0.5")
+        self.assertRejects(TypeError, ["speeds = True"], sweep, RIGID, [True])
+        self.assertRejects(ValueError, ["speeds: no speed"], sweep, RIGID, [])
+        self.assertRejects(ValueError, ["--speeds", "20000"], sweep, RIGID, [5.0, 2e4])
+        self.assertRejects(ValueError, ["--speeds", "inf"], sweep, RIGID, [math.inf])
+        self.assertRejects(ValueError, ["--vary", "-100"], mjstepper.map, COUPLING, "40rpm",
+                           ("stiffness:coupling", [-100]))
+        self.assertRejects(ValueError, ["--vary", "damping:coupling"], mjstepper.map, COUPLING,
+                           "40rpm", ("damping:coupling", [1]))
+        self.assertRejects(ValueError, ["--duration: 1000000000.0 is not in [1e-06, 1e+06] s"],
+                           mjstepper.run, RIGID, 1e9)
+        self.assertRejects(ValueError, ["--mass", "payload=-2"], mjstepper.run, RIGID, 0.1,
+                           mass={"payload": -2})
+        self.assertRejects(ValueError, ["/no/such/model.xml"], sweep, "/no/such/model.xml",
+                           "40rpm")
+        self.assertRejects(ValueError, ["'nothing'", "not a stepper"], sweep, RIGID, "40rpm",
+                           actuator="nothing")
+
+    def test_measure_holds_at_least_100_timesteps(self):
+        with open(RIGID) as f:
+            coarse = f.read().replace('timestep="5e-5"', 'timestep="2e-4"')
+        path = os.path.join(os.getcwd(), "tsui_coarse.xml")
+        with open(path, "w") as f:
+            f.write(coarse)
+        self.assertRejects(ValueError, ["--measure 0.01", "at least 100 timesteps"],
+                           mjstepper.sweep, path, "40rpm", measure=0.01)
+
+    def test_out_replaces_only_a_regular_file(self):
+        # A symbolic link, a FIFO or a directory as `out` is refused before any run, and left as
+        # it was.
+        folder = tempfile.mkdtemp()
+        target = os.path.join(folder, "target.csv")
+        with open(target, "w") as f:
+            f.write("precious\n")
+        link, fifo = os.path.join(folder, "link"), os.path.join(folder, "fifo")
+        os.symlink(target, link + ".csv")
+        os.mkfifo(fifo + ".csv")
+        for out in (link, fifo):
+            self.assertRejects(RuntimeError, [out + ".csv", "written only as regular files"],
+                               mjstepper.sweep, RIGID, "40rpm", out=out)
+        self.assertTrue(os.path.islink(link + ".csv"))
+        self.assertTrue(stat.S_ISFIFO(os.lstat(fifo + ".csv").st_mode))
+        with open(target) as f:
+            self.assertEqual(f.read(), "precious\n")
+        self.assertEqual(sorted(os.listdir(folder)), ["fifo.csv", "link.csv", "target.csv"])
+
+    def test_without_ray_says_how_to_install_it(self):
+        for function, args in ((mjstepper.distributed.sweep, (RIGID, "40rpm")),
+                               (mjstepper.distributed.map,
+                                (COUPLING, "40rpm", ("mass:load", [0.5])))):
+            self.assertRejects(ModuleNotFoundError, ['pip install "ray==2.60.0"',
+                                                     'mjstepper[ray]'], function, *args,
+                               measure=0.2)
 
 
 class HostileArguments(unittest.TestCase):
@@ -241,103 +447,6 @@ class HostileArguments(unittest.TestCase):
             documented.append(line.split("`")[1])
         self.assertEqual(mjstepper.ATTRIBUTES, tuple(documented))
         self.assertEqual(mjstepper.ATTRIBUTE_UNITS["hold_current"], "A")
-
-
-class SweepArguments(unittest.TestCase):
-    """sweep and resonance_map check every argument before any work, without Ray; no run starts."""
-    MODEL = os.path.join(SOURCE, "models", "tsui_rigid.xml")
-    COUPLING = os.path.join(SOURCE, "models", "tsui_coupling.xml")
-
-    def assertRejects(self, error, words, function=None, **arguments):
-        arguments.setdefault("speeds", [5.0])
-        with mock.patch.dict(sys.modules, {"ray": None}):  # a run would need Ray: none starts
-            with self.assertRaises(error) as ctx:
-                (function or mjstepper.sweep)(arguments.pop("model", self.MODEL), **arguments)
-        for word in words:
-            self.assertIn(word, str(ctx.exception))
-
-    def test_every_numeric_argument_names_itself_and_its_range(self):
-        missing = "/no/such/model.xml"  # checked before the model is read
-        self.assertRejects(ValueError, ["settle = -1", "[0, 60] s"], settle=-1, model=missing)
-        self.assertRejects(ValueError, ["settle = nan", "[0, 60] s"], settle=math.nan)
-        self.assertRejects(ValueError, ["measure = 0.0 s", "[0.01, 60] s"], measure=0, model=missing)
-        self.assertRejects(ValueError, ["measure = 61", "[0.01, 60] s"], measure=61)
-        self.assertRejects(TypeError, ["measure = '0.5'"], measure="0.5")
-        self.assertRejects(ValueError, ["acceleration = 0", "> 0"], acceleration=0)
-        self.assertRejects(ValueError, ["speeds = []", "at least one"], speeds=[], model=missing)
-        self.assertRejects(ValueError, ["speeds[1] = 20000", "0 < |speed| <= 10000 rad/s"],
-                           speeds=[5.0, 2e4])
-        self.assertRejects(ValueError, ["speeds[0] = 0.0 rad/s"], speeds=np.zeros(3))
-        self.assertRejects(ValueError, ["speeds[0] = inf"], speeds=[math.inf])
-        self.assertRejects(ValueError, ["100001 speeds", "at most 100000"],
-                           speeds=np.ones(100_001))
-        self.assertRejects(TypeError, ["speeds[0] = True"], speeds=[True])
-        self.assertRejects(TypeError, ["speeds = 5.0"], speeds=5.0)
-        self.assertEqual((mjstepper._sweep.SETTLE_RANGE, mjstepper._sweep.MEASURE_RANGE,
-                          mjstepper._sweep.MAX_SPEED, mjstepper._sweep.MAX_SPEEDS),
-                         ((0, 60), (0.01, 60), 1e4, 100_000))
-
-    def test_map_values_name_the_parameters_range(self):
-        resonance_map = mjstepper.resonance_map
-        stiffness = {"function": resonance_map, "model": self.COUPLING,
-                     "parameter": "stiffness:coupling"}
-        mass = {"function": resonance_map, "model": self.COUPLING, "parameter": "mass:load"}
-        self.assertRejects(ValueError, ["values[0] = -100.0 N·m/rad", "0 < value <= 1e+12 N·m/rad or N/m"],
-                           values=[-100], **stiffness)
-        self.assertRejects(ValueError, ["values[1] = 2000000000000.0"], values=[20, 2e12], **stiffness)
-        self.assertRejects(ValueError, ["values = []", "at least one"], values=[], **stiffness)
-        self.assertRejects(ValueError, ["values[0] = 0.0 kg", "0 < value <= 1e+06 kg"], values=[0],
-                           **mass)
-        self.assertRejects(ValueError, ["values[0] = nan", "kg"], values=[math.nan], **mass)
-        self.assertRejects(ValueError, ["values[0] = 2000000.0", "kg"], values=[2e6], **mass)
-        self.assertRejects(ValueError, ["parameter = 'damping:coupling'"], values=[1],
-                           function=resonance_map, parameter="damping:coupling")
-        self.assertRejects(ValueError, ["no joint named 'nothing'"], values=[1],
-                           function=resonance_map, model=self.COUPLING,
-                           parameter="stiffness:nothing")
-
-    def test_measure_holds_at_least_100_timesteps(self):
-        with open(self.MODEL) as f:
-            coarse = f.read().replace('timestep="5e-5"', 'timestep="2e-4"')
-        path = os.path.join(os.getcwd(), "tsui_coarse.xml")
-        with open(path, "w") as f:
-            f.write(coarse)
-        self.assertRejects(ValueError, ["measure = 0.01 s", "50 timesteps", "at least 100",
-                                        "measure >= 0.02 s"], model=path, measure=0.01)
-        self.assertRejects(ModuleNotFoundError, ["mjstepper[ray]"], model=path, measure=0.02)
-
-    def test_out_replaces_only_a_regular_file(self):
-        # A symbolic link, a FIFO or a directory as `out` is refused before any run (a CSV would
-        # have replaced it), and left as it was; a regular file is written whole, nothing beside it.
-        folder = tempfile.mkdtemp()
-        target = os.path.join(folder, "target.csv")
-        with open(target, "w") as f:
-            f.write("precious\n")
-        link, fifo = os.path.join(folder, "link.csv"), os.path.join(folder, "fifo.csv")
-        os.symlink(target, link)
-        os.mkfifo(fifo)
-        for out in (link, fifo, folder):
-            self.assertRejects(OSError, [repr(out), "not a regular file"], out=out)
-        self.assertTrue(os.path.islink(link) and stat.S_ISFIFO(os.lstat(fifo).st_mode))
-        with open(target) as f:
-            self.assertEqual(f.read(), "precious\n")
-        mjstepper._sweep._write_csv(target, ("a", "b"), [(1, 2)])
-        with open(target) as f:
-            self.assertEqual(f.read().splitlines(), ["a,b", "1.0,2.0"])
-        self.assertEqual(sorted(os.listdir(folder)), ["fifo.csv", "link.csv", "target.csv"])
-
-    def test_the_stepper_is_checked_on_the_driver(self):
-        self.assertRejects(KeyError, ["no actuator named 'nothing'"], actuator="nothing")
-        self.assertRejects(IndexError, ["no actuator 3"], actuator=3)
-
-    def test_without_ray_says_how_to_install_it(self):
-        self.assertRejects(ModuleNotFoundError, ['pip install "mjstepper[ray]"', "mjstepper.sweep"],
-                           measure=0.01)
-        self.assertRejects(ModuleNotFoundError, ['pip install "mjstepper[ray]"',
-                                                 "mjstepper.resonance_map"],
-                           function=mjstepper.resonance_map, model=os.path.join(
-                               SOURCE, "models", "tsui_coupling.xml"),
-                           parameter="mass:load", values=[0.5])
 
 
 if __name__ == "__main__":

@@ -1,0 +1,239 @@
+"""The experiments of the mjstepper command as Python functions, over the C++ engine.
+
+Each function turns its arguments into the command line they stand for (`sweep(model, speeds,
+settle=0.3)` is `mjstepper sweep MODEL --speeds ... --settle 0.3`) and hands it to the bound engine
+(mjstepper._engine, src/python/engine.cc): the command's own parser checks it (every bound and
+message is the command's: README, "Options"), the experiment runs in C++ (src/tools), the files
+named are written as the command writes them, and the result comes back as Tables, NumPy records
+with named columns and SI units. A number is passed as its shortest round-trip text (repr), so the
+engine computes with the very double given.
+"""
+import dataclasses
+import numbers
+import os
+
+import numpy as np
+
+from . import _engine
+
+
+class Table(np.recarray):
+    """Rows with named columns (`t.speed`, `t["speed"]`) and `t.units` ({column: unit}, SI)."""
+
+    def __new__(cls, columns, parameter=None):
+        """`columns`: (name, unit, values) each, as the engine returns them."""
+        n = len(columns[0][2]) if columns else 0
+        dtype = []
+        for name, unit, values in columns:
+            if unit == "bool":
+                dtype.append((name, np.bool_))
+            elif values and isinstance(values[0], str):
+                dtype.append((name, f"U{max(len(v) for v in values)}"))
+            else:
+                dtype.append((name, np.float64))
+        table = np.recarray(n, dtype=dtype).view(cls)
+        for name, _, values in columns:
+            table[name] = values
+        table.units = {name: ("" if unit == "bool" else unit) for name, unit, _ in columns}
+        table.parameter = parameter
+        return table
+
+    def __array_finalize__(self, obj):
+        self.units = getattr(obj, "units", None)
+        self.parameter = getattr(obj, "parameter", None)
+
+    def columns(self):
+        """{column: values} (plain arrays)."""
+        return {name: np.asarray(self[name]) for name in self.dtype.names}
+
+
+@dataclasses.dataclass
+class RunResult:
+    """`run`'s result: per-stepper summary rows, and each stepper's per-step trace."""
+    steppers: Table  # name, profile, final_speed, rms/max velocity error, max_load_angle, lost_steps
+    traces: dict  # stepper name → Table(time, omega_cmd, velocity_error, current_a, load_angle)
+    steps: int
+    sim_time: float  # s
+    wall_time: float  # s
+    frames: int
+
+
+@dataclasses.dataclass
+class Identified:
+    """`identify`'s estimates: detent harmonics, static friction Fs and viscous damping B."""
+    harmonics: Table  # order, amplitude (N·m), phase (rad)
+    static_friction: float  # N·m
+    viscous_damping: float  # N·m·s/rad
+    residual_rms: float  # N·m
+    damping_detent: str  # the estimates as a damping_detent attribute value
+
+
+@dataclasses.dataclass
+class ResonanceTest:
+    """`resonance_test`'s result: the tested axis' PSD and every input shaper's fit."""
+    psd: Table  # frequency (Hz), psd ((m/s²)²/Hz)
+    fits: Table  # shaper, frequency (Hz), vibration, smoothing (m), max_accel (m/s²)
+    peak_frequency: float  # Hz
+    recommended: str  # the shaper recommended, or None
+    samples: int
+
+
+def _number(name, value):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} = {value!r} ({type(value).__name__}): {name} takes a number")
+    return repr(float(value)) if not isinstance(value, numbers.Integral) else str(int(value))
+
+
+def _text(name, value):
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if not isinstance(value, str):
+        raise TypeError(f"{name} = {value!r} ({type(value).__name__}): {name} takes a str")
+    return value
+
+
+def speeds_text(speeds):
+    """A speed list as the command takes it: a str as it is ("10:200:2.5rpm"), a number or a
+    sequence of numbers as rad/s, each to the last bit."""
+    if isinstance(speeds, str):
+        return speeds
+    if isinstance(speeds, numbers.Real) and not isinstance(speeds, (bool, np.bool_)):
+        speeds = [speeds]
+    values = [repr(float(_number("speeds", s))) for s in speeds]
+    if not values:
+        raise ValueError("speeds: no speed")
+    return ",".join(values) + "rad/s"
+
+
+# The options whose values are text (paths, names, profiles, --set items); every other takes
+# numbers only (a str there is a TypeError, as a list where a number belongs).
+_TEXT_OPTIONS = {"ctrl", "log", "keyframe", "render", "frames", "camera", "plot", "accel_log",
+                 "accelerometer", "actuator", "out", "speeds", "vary", "axis", "dyno", "set",
+                 "overlay"}
+
+
+def command_line(subcommand, positional, options):
+    """The command line of `subcommand` with `positional` arguments and `options`
+    ({python_name: value}): None and False leave an option out, True gives a flag, a dict
+    NAME=VALUE items, a list or tuple the option repeated, a number its repr."""
+    args = [subcommand] + [_text("model", p) for p in positional]
+    for name, value in options.items():
+        if value is None or value is False:
+            continue
+        flag = "--" + name.replace("_", "-")
+        if value is True:
+            args.append(flag)
+        elif isinstance(value, dict):
+            for key, v in value.items():
+                v = (_text(f"{name}[{key!r}]", v) if name in _TEXT_OPTIONS
+                     else _number(f"{name}[{key!r}]", v))
+                args += [flag, f"{_text(name, key)}={v}"]
+        elif isinstance(value, (list, tuple)) and name != "size":
+            for v in value:
+                args += [flag, _text(name, v) if name in _TEXT_OPTIONS else _number(name, v)]
+        elif name == "size":
+            width, height = value
+            args += [flag, f"{_number('size', width)}x{_number('size', height)}"]
+        elif name in _TEXT_OPTIONS:
+            args += [flag, _text(name, value)]
+        else:
+            args += [flag, _number(name, value)]
+    return args
+
+
+def _quiet(progress):
+    return not progress
+
+
+def run(model, duration, *, ctrl=None, log=None, log_every=None, set=(), load=None, mass=None,
+        keyframe=None, allow_coarse=False, render=None, frames=None, camera=None, size=None,
+        fps=None, playback=None, overlay=(), no_overlay=False, plot=None, accel_log=None,
+        accelerometer=None, traces=True, progress=False):
+    """`mjstepper run`: steps `model` for `duration` s with a command profile per stepper
+    (`ctrl={"shaft": "ramp(0rpm,200rpm,0.8s)"}`), writing the CSV log, video, frames or
+    accelerometer log asked for; returns a RunResult (with each stepper's per-step trace unless
+    traces=False). `set` ("shaft.damping=all", ...), `load` and `mass` ({name: value}) and the
+    rest are the command's options (README, "The command")."""
+    args = command_line("run", [model], dict(
+        duration=duration, ctrl=ctrl, log=log, log_every=log_every, set=list(set), load=load,
+        mass=mass, keyframe=keyframe, allow_coarse=allow_coarse, render=render, frames=frames,
+        camera=camera, size=size, fps=fps, playback=playback, overlay=list(overlay),
+        no_overlay=no_overlay, plot=plot, accel_log=accel_log, accelerometer=accelerometer,
+        quiet=_quiet(progress)))
+    r = _engine.compute(args, traces)
+    return RunResult(steppers=Table(r["steppers"]),
+                     traces={name: Table(t) for name, t in r["traces"].items()},
+                     steps=r["steps"], sim_time=r["sim_time"], wall_time=r["wall_time"],
+                     frames=r["frames"])
+
+
+def sweep_args(model, speeds, *, actuator=None, settle=None, measure=None, threads=None, set=(),
+               out=None, progress=False):
+    return command_line("sweep", [model], dict(
+        speeds=speeds_text(speeds), actuator=actuator, settle=settle, measure=measure,
+        threads=threads, set=list(set), out=out, quiet=_quiet(progress)))
+
+
+def sweep(model, speeds, **options):
+    """`mjstepper sweep`: one constant-speed run per speed (a str such as "10:200:2.5rpm", or
+    numbers in rad/s) on all cores; a Table of speed, rms_error, peak_to_peak_error (rad/s),
+    dominant_frequency (Hz), lost_steps. `out=PREFIX` also writes PREFIX.csv and PREFIX.png.
+    Options: actuator, settle, measure, threads, set, out, progress."""
+    return Table(_engine.compute(sweep_args(model, speeds, **options), False)["table"])
+
+
+def map_args(model, speeds, vary, *, actuator=None, settle=None, measure=None, threads=None,
+             set=(), out=None, progress=False):
+    parameter, values = vary
+    text = f"{_text('vary', parameter)}=" + ",".join(_number("vary", v) for v in values)
+    return command_line("map", [model], dict(
+        speeds=speeds_text(speeds), vary=text, actuator=actuator, settle=settle, measure=measure,
+        threads=threads, set=list(set), out=out, quiet=_quiet(progress)))
+
+
+def map(model, speeds, vary, **options):
+    """`mjstepper map`: the sweep over speeds × values of one load parameter,
+    vary=("stiffness:JOINT", [values]) (N·m/rad or N/m) or ("mass:BODY", [kg]); a Table of value
+    and the sweep's columns, values outermost. Options as `sweep`."""
+    r = _engine.compute(map_args(model, speeds, vary, **options), False)
+    return Table(r["table"], parameter=r["parameter"])
+
+
+def pullout_args(model, speeds, *, actuator=None, rate=None, max_torque=None, threads=None,
+                 set=(), out=None, progress=False):
+    return command_line("pullout", [model], dict(
+        speeds=speeds_text(speeds), actuator=actuator, rate=rate, max_torque=max_torque,
+        threads=threads, set=list(set), out=out, quiet=_quiet(progress)))
+
+
+def pullout(model, speeds, **options):
+    """`mjstepper pullout`: the pull-out torque curve; a Table of speed (rad/s), torque (N·m,
+    rotor side), slipped_unloaded, held_max. Options: actuator, rate (N·m/s), max_torque (N·m),
+    threads, set, out, progress."""
+    return Table(_engine.compute(pullout_args(model, speeds, **options), False)["table"])
+
+
+def identify(model, speeds="10,30rpm", *, actuator=None, dyno=None, orders=None, set=()):
+    """`mjstepper identify`: Tsui's bench; the detent harmonics, Fs and B (Identified)."""
+    r = _engine.compute(command_line("identify", [model], dict(
+        speeds=speeds_text(speeds), actuator=actuator, dyno=dyno,
+        orders=None if orders is None else list(orders), set=list(set))), False)
+    return Identified(harmonics=Table(r["harmonics"]), static_friction=r["static_friction"],
+                      viscous_damping=r["viscous_damping"], residual_rms=r["residual_rms"],
+                      damping_detent=r["damping_detent"])
+
+
+def resonance_test(model, axis, out, *, min_freq=None, max_freq=None, accel_per_hz=None,
+                   hz_per_sec=None, accelerometer=None, accel_rate=None, accel_range=None,
+                   accel_noise=None, seed=None, set=(), progress=False):
+    """`mjstepper resonance-test`: Klipper's TEST_RESONANCES on a simulated printer; writes
+    OUT_raw.csv (Klipper's raw accelerometer format), OUT_psd.csv and OUT.png, returns a
+    ResonanceTest. accel_per_hz in mm/s² per Hz, accel_noise in µg/√Hz, as the command."""
+    r = _engine.compute(command_line("resonance-test", [model], dict(
+        axis=axis, out=out, min_freq=min_freq, max_freq=max_freq, accel_per_hz=accel_per_hz,
+        hz_per_sec=hz_per_sec, accelerometer=accelerometer, accel_rate=accel_rate,
+        accel_range=accel_range, accel_noise=accel_noise, seed=seed, set=list(set),
+        quiet=_quiet(progress))), False)
+    return ResonanceTest(psd=Table(r["psd"]), fits=Table(r["fits"]),
+                         peak_frequency=r["peak_frequency"], recommended=r["recommended"],
+                         samples=r["samples"])
