@@ -158,6 +158,15 @@ constexpr AttributeSpec kAttrGauge{
     "the rotor's; the angle between them is δ, and a magenta arrow sweeping full turns is lost "
     "steps. `off`: draw nothing."};
 
+constexpr AttributeSpec kAttrCoupling{
+    "coupling", "name", "`consistent`", "—",
+    "How the torque is handed to MuJoCo each step (SPEC §10, `src/core/coupling.h`). "
+    "`consistent`: the torque that makes MuJoCo's Euler step the exact map of the linearised "
+    "rotor (its stiffness −∂τ/∂θ this step, the rotor-side inertia and the other forces' "
+    "acceleration read from `mjData`), so the rotor rings at its own frequency at coarse "
+    "timesteps (ωn·h up to about 1) and static equilibria stay where they are. `explicit`: the "
+    "torque at the step's start, whose ring is fast by (ωn·h)²/24."};
+
 const std::vector<const AttributeSpec*>& DriveAttributes() {
   static const std::vector<const AttributeSpec*> list = {&kAttrMotor,
                                                          &kAttrDrive,
@@ -190,7 +199,8 @@ const std::vector<const AttributeSpec*>& DriveAttributes() {
                                                          &kAttrInsulationClass,
                                                          &kAttrResistanceCoefficient,
                                                          &kAttrTorqueConstantCoefficient,
-                                                         &kAttrGauge};
+                                                         &kAttrGauge,
+                                                         &kAttrCoupling};
   return list;
 }
 
@@ -422,6 +432,10 @@ std::variant<StepperConfig, std::string> ParseStepperConfig(const AttributeReade
   StepperConfig c{.drive = std::get<DriveConfig>(drive)};
   try {
     c.gauge = AttributeSource(read).Choice(kAttrGauge, "on", {"on", "off"}) == "on";
+    c.coupling = AttributeSource(read).Choice(kAttrCoupling, "consistent",
+                                              {"consistent", "explicit"}) == "explicit"
+                     ? Coupling::kExplicit
+                     : Coupling::kConsistent;
   } catch (const std::exception& e) {
     return std::string(e.what());
   }

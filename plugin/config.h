@@ -11,14 +11,16 @@
 #include <vector>
 
 #include "core/attributes.h"
+#include "core/coupling.h"
 #include "core/drive.h"
 
 namespace mjstepper::plugin {
 
-/// What the plugin adds to a drive's configuration: presentation only.
+/// What the plugin adds to a drive's configuration: presentation, and the coupling to MuJoCo.
 struct StepperConfig {
   DriveConfig drive;
   bool gauge = true;  ///< draw the load-angle gauge on the rotor (visualize callback)
+  Coupling coupling = Coupling::kConsistent;  ///< the torque handed to MuJoCo (core/coupling.h)
 };
 
 /// Every attribute, each once: the drive's own, then the controllers' in registry order.

@@ -265,6 +265,7 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
   stepper->drive_.emplace(std::get<StepperConfig>(parsed).drive);
   stepper->state_size_ = stepper->drive_->layout().total();
   stepper->gauge_ = std::get<StepperConfig>(parsed).gauge;
+  stepper->coupling_ = std::get<StepperConfig>(parsed).coupling;
 
   stepper->insulation_warned_ = std::make_unique<std::atomic<bool>[]>(bound.size());
   for (int s = 0; s < m->nsensor; ++s) {
@@ -399,10 +400,69 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
     // core state suffices once the drive has started.
     const double* values = Slot(m, d, instance, slot);
     const double theta = d->actuator_length[a.outadr];
-    d->actuator_force[a.outadr] = Drive::Started(values)
-                                      ? drive_->StoredTorque(values, theta)
-                                      : drive_->Torque(CurrentState(m, d, instance, slot), theta);
+    const bool started = Drive::Started(values);
+    double torque = started ? drive_->StoredTorque(values, theta)
+                            : drive_->Torque(CurrentState(m, d, instance, slot), theta);
+    if (coupling_ == Coupling::kConsistent && started) {
+      torque = ConsistentForce(m, d, a, torque, drive_->StoredStiffness(values, theta));
+    }
+    d->actuator_force[a.outadr] = torque;
   }
+}
+
+double Stepper::ConsistentForce(const mjModel* m, mjData* d, const Actuator& a, double torque,
+                                double stiffness) {
+  // C-2 (core/coupling.h) needs the rotor-side inertia J = 1/(r·M⁻¹·rᵀ) and the acceleration the
+  // model's other forces give the rotor coordinate, a_ext = r·M⁻¹·F, r the actuator's moment row
+  // (∂θ/∂q) and M this step's mass matrix (factorised before actuation). F is what MuJoCo will add
+  // up as qfrc_smooth + qfrc_constraint, less this actuator: this step's passive, bias (gravity,
+  // Coriolis), applied and xfrc forces (without the dofs' damping) and every other actuator's
+  // force (MuJoCo computes the
+  // built-in ones before the plugins; a stepper later in the model gives its previous step's),
+  // and the previous step's constraint forces (this step's come after actuation).
+  const int nv = m->nv;
+  mj_markStack(d);
+  mjtNum* x = mj_stackAllocNum(d, nv);
+  mjtNum* force = mj_stackAllocNum(d, nv);
+  mju_zero(x, nv);
+  const int begin = d->moment_rowadr[a.outadr], end = begin + d->moment_rownnz[a.outadr];
+  for (int k = begin; k < end; ++k) x[d->moment_colind[k]] = d->actuator_moment[k];
+  mj_solveM(m, d, x, x, 1);    // M⁻¹·rᵀ
+  double inverse_inertia = 0;  // 1/J = r·M⁻¹·rᵀ, 1/(kg·m²)
+  for (int k = begin; k < end; ++k) {
+    inverse_inertia += d->actuator_moment[k] * x[d->moment_colind[k]];
+  }
+  for (int i = 0; i < nv; ++i) {
+    // The dofs' damping is left out: MuJoCo integrates it implicitly, and C-2 leaves it whole.
+    force[i] = d->qfrc_passive[i] + m->dof_damping[i] * d->qvel[i] - d->qfrc_bias[i] +
+               d->qfrc_applied[i] + d->qfrc_constraint[i];
+  }
+  for (int b = 1; b < m->nbody; ++b) {  // xfrc_applied at each body's centre of mass
+    const mjtNum* wrench = d->xfrc_applied + 6 * b;
+    if (wrench[0] || wrench[1] || wrench[2] || wrench[3] || wrench[4] || wrench[5]) {
+      mj_applyFT(m, d, wrench, wrench + 3, d->xipos + 3 * b, b, force);
+    }
+  }
+  for (int j = 0; j < m->nu; ++j) {
+    // Other actuators' forces; every actuator's damping (in qfrc_passive) taken out as the dofs'.
+    const double actuator = (j == a.outadr ? 0.0 : d->actuator_force[j]) +
+                            m->actuator_damping[j] * d->actuator_velocity[j];
+    if (actuator == 0) continue;
+    for (int k = d->moment_rowadr[j]; k < d->moment_rowadr[j] + d->moment_rownnz[j]; ++k) {
+      force[d->moment_colind[k]] += d->actuator_moment[k] * actuator;
+    }
+  }
+  for (int j = 0; j < m->njnt; ++j) {  // gravity compensation counted with the actuators
+    if (!m->jnt_actgravcomp[j]) continue;
+    const int dofs = m->jnt_type[j] == mjJNT_FREE ? 6 : m->jnt_type[j] == mjJNT_BALL ? 3 : 1;
+    for (int v = m->jnt_dofadr[j]; v < m->jnt_dofadr[j] + dofs; ++v) {
+      force[v] += d->qfrc_gravcomp[v];
+    }
+  }
+  const double external = mju_dot(x, force, nv);  // a_ext = (M⁻¹·rᵀ)·F, rad/s²
+  mj_freeStack(d);
+  if (!(inverse_inertia > 0)) return torque;
+  return ConsistentTorque(torque, stiffness, 1.0 / inverse_inertia, external, m->opt.timestep);
 }
 
 bool Stepper::WarnOnce(unsigned cause, const std::string& message) const {

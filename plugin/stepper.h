@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "core/coupling.h"
 #include "core/drive.h"
 #include "modes.h"
 
@@ -89,6 +90,10 @@ class Stepper {
     int gauge_joint = -1;  // the hinge the gauge is drawn on, or -1 (none)
     double gear = 1;
   };
+  /// C-2 of core/coupling.h for actuator `a`: the torque handed to MuJoCo this step, from the
+  /// motor's τ0 and stiffness k, with J and a_ext read from d (mass matrix, forces).
+  static double ConsistentForce(const mjModel* m, mjData* d, const Actuator& a, double torque,
+                                double stiffness);
   /// The rotor angle at the step's end t1 (qpos already integrated), rad.
   static double RotorAngleAtEnd(const mjModel* m, const mjData* d, const Actuator& a);
 
@@ -116,6 +121,7 @@ class Stepper {
   std::optional<Drive> drive_;  // empty for a probe
   int state_size_ = 0;          // doubles of plugin_state per actuator: drive_->layout().total()
   bool gauge_ = true;
+  Coupling coupling_ = Coupling::kConsistent;
   // The causes (bit 1 << Cause) already reported by this instance on this mjData: a diagnostic,
   // not simulation state.
   mutable std::atomic<unsigned> warned_{0};

@@ -731,6 +731,27 @@ double Drive::StoredTorque(const double* values, double theta) const {
   return torque_em + torque_detent;
 }
 
+double Drive::StoredStiffness(const double* values, double theta) const {
+  using S = DriveCoreState;
+  auto field = [values](std::size_t offset) { return values[offset / sizeof(double)]; };
+  const PhaseVector z =
+      RotorPhasor(field(offsetof(S, started)) != 0, field(offsetof(S, theta)),
+                  {field(offsetof(S, rotor_cos)), field(offsetof(S, rotor_sin))}, theta);
+  const double torque_constant = thermal_
+                                     ? TorqueConstantAt(field(offsetof(S, winding_temperature)))
+                                     : constants_.torque_constant;
+  const PhaseVector current(field(offsetof(S, current_a)), field(offsetof(S, current_b)));
+  // S-4: ∂/∂θ Km·Im(z̄·i) = −Nr·Km·Re(z̄·i), z = e^{jNrθ}; S-5: ∂/∂θ −Im(Σh wh·z^h) =
+  // −Nr·Re(Σh h·wh·z^h).
+  PhaseVector detent(0, 0), power(1, 0);
+  for (std::size_t h = 0; h < detent_weights_.size(); ++h) {
+    power *= z;
+    detent += static_cast<double>(h + 1) * detent_weights_[h] * power;
+  }
+  return constants_.rotor_teeth *
+         (torque_constant * (std::conj(z) * current).real() + detent.real());
+}
+
 DriveSignals Drive::Signals(const DriveState& s, double theta) const {
   const MotorParams& motor = config_.motor;
   DriveSignals out;

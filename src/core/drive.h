@@ -291,6 +291,9 @@ class Drive {
   /// The same from a started state's stored doubles (layout().total() of them), reading only
   /// what the torque needs: the actuator force of every simulation step.
   double StoredTorque(const double* values, double theta) const;
+  /// k = −∂(τm + τdet)/∂θ at θ with the stored currents held (N·m/rad), S-4, S-5: the stiffness
+  /// the rotor feels over one step (the consistent coupling, core/coupling.h).
+  double StoredStiffness(const double* values, double theta) const;
 
   DriveSignals Signals(const DriveState& state, double theta) const;
 

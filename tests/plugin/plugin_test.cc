@@ -224,8 +224,9 @@ TEST(StepperPlugin, OneDataPerThreadMatchesSerial) {
   EXPECT_NE(serial[0], serial[1]);
 }
 
-// The signal sensor reports the drive's state and what MuJoCo applied: at rest on θ = 0 with the
-// Tsui drive, ia = 1.9 A, ib = 0, id = 1.9 A, and torque_total equals actuator_force.
+// The signal sensor reports the drive's state: at rest on θ = 0 with the Tsui drive, ia = 1.9 A,
+// ib = 0, id = 1.9 A; torque_total is the motor's τm + τdet, which MuJoCo applies as it is with
+// coupling="explicit" (the consistent coupling hands it C-2 instead: Coupling tests).
 TEST(StepperPlugin, SignalSensorReportsDriveState) {
   const ModelPtr m = LoadModel(ProbedVelocityRotor());
   ASSERT_TRUE(m);
@@ -239,8 +240,16 @@ TEST(StepperPlugin, SignalSensorReportsDriveState) {
   EXPECT_DOUBLE_EQ(s[kVoltageA], 1.9 * 0.9);
   Step(m.get(), d.get(), 500);
   mj_forward(m.get(), d.get());
-  EXPECT_EQ(s[kTorqueTotal], d->actuator_force[0]);
+  EXPECT_NE(s[kTorqueTotal], d->actuator_force[0]);  // C-2
   EXPECT_NEAR(s[kTorqueTotal], s[kTorqueEm] + s[kTorqueDetent], 1e-15);
+  std::string xml = ProbedVelocityRotor();
+  xml.replace(xml.find("</plugin>", xml.find("<actuator>")), 0, Config("coupling", "explicit"));
+  const ModelPtr explicit_model = LoadModel(xml);
+  ASSERT_TRUE(explicit_model);
+  const DataPtr e(mj_makeData(explicit_model.get()));
+  Step(explicit_model.get(), e.get(), 500);
+  mj_forward(explicit_model.get(), e.get());
+  EXPECT_EQ(e->sensordata[kTorqueTotal], e->actuator_force[0]);
   EXPECT_NEAR(s[kLoadAngle], 50 * (s[kThetaCmd] - d->actuator_length[0]), 1e-12);
 }
 

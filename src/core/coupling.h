@@ -1,0 +1,48 @@
+// How the stepper's torque is handed to the multibody integrator over one timestep h (SPEC §10).
+//
+// MuJoCo integrates the rotor with semi-implicit (symplectic) Euler: v1 = v0 + h·a(θ0),
+// θ1 = θ0 + h·v1. On the stepper's stiff spring (T' on the rotor-side inertia J: ωn = √(T'/J))
+// a torque taken at the step's start rings at Ω with sin(Ωh/2) = ωn·h/2: fast by (ωn·h)²/24, 4.7 %
+// at ωn·h = 1 (the `explicit` coupling).
+//
+// The `consistent` coupling hands MuJoCo, instead of τ(θ0), the torque that makes its Euler step
+// the exact map of the locally linearised rotor. Linearised about the step's start the rotor-side
+// acceleration is a(θ) = a0 − ω²·(θ − θ0), with a0 = τ0/J + a_ext (a_ext the acceleration the
+// model's other forces give the rotor coordinate) and ω² = k/J, k = −∂τ/∂θ the stiffness the rotor
+// feels this step (currents held). Symplectic Euler on a spring k̃ has trace 2 − h²·k̃/J and
+// determinant 1; the exact map has trace 2·cos ωh and determinant 1. With
+//     k̃ = σ·k,   σ(u) = 2·(1 − cos √u)/u,   u = ω²h² = k·h²/J               (C-1)
+// (cosh for k < 0; σ → 1 − u/12 + u²/360 as u → 0) the two agree: the discrete rotor rings at the
+// linearised rotor's own frequency, with no energy gained or lost, at any ωn·h < π. Scaling the
+// spring about the linearised equilibrium θ0 + a0/ω² rather than about θ0 keeps every static
+// equilibrium where it is (a0 = 0 there): the rotor acceleration handed over is σ·a0, that is
+//     τ = σ·τ0 + (σ − 1)·J·a_ext.                                              (C-2)
+// Beyond ωh = π no Euler step can ring at ω (its fastest ring is the Nyquist rate); there σ·u is
+// held at 3.96, just inside symplectic Euler's stability limit σ·u < 4 (at ωh = π, σ = 4/π²): the
+// rotor stays bounded, ringing at about half the step rate. A negative stiffness (a rotor past
+// its pull-out angle, falling to the next step) grows as cosh; there σ is held at its value at
+// |ω|h = π (2.15), the linearisation being worthless over more. The timestep rule keeps models far
+// below both.
+#ifndef MJSTEPPER_CORE_COUPLING_H_
+#define MJSTEPPER_CORE_COUPLING_H_
+
+namespace mjstepper {
+
+enum class Coupling {
+  kExplicit,    ///< τ(θ0): the torque at the step's start
+  kConsistent,  ///< C-2: the exact map of the linearised rotor over the step
+};
+
+/// σ(u) of C-1, u = k·h²/J (dimensionless, any sign).
+double StiffnessScale(double u);
+
+/// C-2: the torque (N·m) to hand the integrator for a step of h (s), given the motor's torque at
+/// the step's start τ0 (N·m), the stiffness k = −∂τ/∂θ (N·m/rad), the rotor-side inertia J
+/// (kg·m²) and the other forces' rotor acceleration a_ext (rad/s²). τ0 itself when J or h is not
+/// positive and finite.
+double ConsistentTorque(double torque, double stiffness, double inertia, double external_accel,
+                        double h);
+
+}  // namespace mjstepper
+
+#endif  // MJSTEPPER_CORE_COUPLING_H_
