@@ -109,13 +109,17 @@ int main(int argc, char** argv) {
                                    R"(<config key="thermal_resistance_housing" value="3.44"/>)"
                                    R"(<config key="heat_capacity_winding" value="30"/>)"
                                    R"(<config key="heat_capacity_housing" value="483"/>)";
-  // "stepper", "stepper1mhz", "chopper", "chopper_heat", "spreadcycle", "stealthchop", "dcmotor"
-  // or "dcmotor_ripple": that one alone (for callgrind)
+  // "stepper", "stepper_explicit", "stepper1mhz", "chopper", "chopper_heat", "spreadcycle",
+  // "stealthchop", "dcmotor" or "dcmotor_ripple": that one alone (for callgrind)
   const std::string only = argc > 2 ? argv[2] : "";
-  if (only == "stepper" || only == "stepper1mhz" || only == "chopper" || only == "chopper_heat" ||
-      only == "spreadcycle" || only == "stealthchop" || only == "dcmotor" ||
-      only == "dcmotor_ripple") {
-    const Stepping s = only == "stepper"        ? Load(dir + "tsui_rigid.xml", 10.472)
+  // The PI drive with the torque at the step's start (the coupling before issue 20).
+  const std::string explicit_coupling = R"(<config key="coupling" value="explicit"/>)";
+  if (only == "stepper" || only == "stepper_explicit" || only == "stepper1mhz" ||
+      only == "chopper" || only == "chopper_heat" || only == "spreadcycle" ||
+      only == "stealthchop" || only == "dcmotor" || only == "dcmotor_ripple") {
+    const Stepping s = only == "stepper" ? Load(dir + "tsui_rigid.xml", 10.472)
+                       : only == "stepper_explicit"
+                           ? Load(dir + "tsui_rigid.xml", 10.472, explicit_coupling)
                        : only == "stepper1mhz"  ? Load(dir + "tsui_rigid.xml", 10.472, fast)
                        : only == "chopper"      ? Load(dir + "tsui_rigid.xml", 10.472, chopper)
                        : only == "chopper_heat" ? Load(dir + "tsui_rigid.xml", 10.472, chopper_heat)
