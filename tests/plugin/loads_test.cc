@@ -13,36 +13,7 @@
 namespace mjstepper::testing {
 namespace {
 
-// models/tsui_coupling.xml without its detent (whose torque would move the rest position off the
-// command and ring the slow mode by itself): rotor J_r (armature), coupling spring k, load J_l;
-// the motor holds the rotor with T' = Nr·Km·I.
-constexpr double kRotorInertia = 0.36e-4;  // kg·m²
-constexpr double kLoadInertia = 0.72e-4;   // kg·m²
-constexpr double kCoupling = 50;           // N·m/rad
-constexpr double kHolding = 50 * 0.3 * 1.9;  // Nr·Km·I, N·m/rad
-
-// The two-mass eigenfrequencies, rad/s: det(K − ω²·M) = 0 with K = [[T' + k, −k], [−k, k]],
-// M = diag(J_r, J_l): J_r·J_l·ω⁴ − (J_r·k + J_l·(T' + k))·ω² + T'·k = 0.
-std::pair<double, double> TwoMassFrequencies() {
-  const double a = kRotorInertia * kLoadInertia;
-  const double b = -(kRotorInertia * kCoupling + kLoadInertia * (kHolding + kCoupling));
-  const double c = kHolding * kCoupling;
-  const double root = std::sqrt(b * b - 4 * a * c);
-  return {std::sqrt((-b - root) / (2 * a)), std::sqrt((-b + root) / (2 * a))};
-}
-
-// Angular frequency, rad/s, from the zero crossings of x(t) about its equilibrium 0 (the
-// oscillations decay, so the mean of a window is not the equilibrium).
-double ZeroCrossingFrequency(const std::vector<double>& t, const std::vector<double>& x) {
-  std::vector<double> crossings;
-  for (size_t i = 0; i + 1 < x.size(); ++i) {
-    if ((x[i] > 0) != (x[i + 1] > 0)) {
-      crossings.push_back(t[i] - x[i] * (t[i + 1] - t[i]) / (x[i + 1] - x[i]));
-    }
-  }
-  if (crossings.size() < 2) return 0;
-  return std::numbers::pi * (crossings.size() - 1) / (crossings.back() - crossings.front());
-}
+using namespace two_mass;  // NOLINT: the coupling model's constants
 
 // Each mode excited alone (a velocity along its mode shape, from rest on the command; friction
 // off, as Coulomb friction would stop an oscillation this small) rings at its closed-form

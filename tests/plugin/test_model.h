@@ -5,10 +5,14 @@
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
 
+#include <cmath>
 #include <fstream>
 #include <memory>
+#include <numbers>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "core/signals.h"
 
@@ -105,6 +109,42 @@ inline std::string ShippedModelWithSignals(const std::string& name, const std::s
                           actuator));
   return xml;
 }
+
+/// models/tsui_coupling.xml's two-mass set-up (loads_test.cc, coupling_test.cc).
+namespace two_mass {
+
+// models/tsui_coupling.xml without its detent (whose torque would move the rest position off the
+// command and ring the slow mode by itself): rotor J_r (armature), coupling spring k, load J_l;
+// the motor holds the rotor with T' = Nr·Km·I.
+constexpr double kRotorInertia = 0.36e-4;    // kg·m²
+constexpr double kLoadInertia = 0.72e-4;     // kg·m²
+constexpr double kCoupling = 50;             // N·m/rad
+constexpr double kHolding = 50 * 0.3 * 1.9;  // Nr·Km·I, N·m/rad
+
+// The two-mass eigenfrequencies, rad/s: det(K − ω²·M) = 0 with K = [[T' + k, −k], [−k, k]],
+// M = diag(J_r, J_l): J_r·J_l·ω⁴ − (J_r·k + J_l·(T' + k))·ω² + T'·k = 0.
+inline std::pair<double, double> TwoMassFrequencies() {
+  const double a = kRotorInertia * kLoadInertia;
+  const double b = -(kRotorInertia * kCoupling + kLoadInertia * (kHolding + kCoupling));
+  const double c = kHolding * kCoupling;
+  const double root = std::sqrt(b * b - 4 * a * c);
+  return {std::sqrt((-b - root) / (2 * a)), std::sqrt((-b + root) / (2 * a))};
+}
+
+// Angular frequency, rad/s, from the zero crossings of x(t) about its equilibrium 0 (the
+// oscillations decay, so the mean of a window is not the equilibrium).
+inline double ZeroCrossingFrequency(const std::vector<double>& t, const std::vector<double>& x) {
+  std::vector<double> crossings;
+  for (size_t i = 0; i + 1 < x.size(); ++i) {
+    if ((x[i] > 0) != (x[i + 1] > 0)) {
+      crossings.push_back(t[i] - x[i] * (t[i + 1] - t[i]) / (x[i + 1] - x[i]));
+    }
+  }
+  if (crossings.size() < 2) return 0;
+  return std::numbers::pi * (crossings.size() - 1) / (crossings.back() - crossings.front());
+}
+
+}  // namespace two_mass
 
 }  // namespace mjstepper::testing
 
