@@ -716,40 +716,35 @@ double Drive::Torque(const DriveCoreState& s, double theta) const {
   return torque_em + torque_detent;
 }
 
-double Drive::StoredTorque(const double* values, double theta) const {
+Drive::StoredMotor Drive::ReadStored(const double* values, double theta) const {
   using S = DriveCoreState;  // standard layout, all doubles: a field is values[offset / 8]
   auto field = [values](std::size_t offset) { return values[offset / sizeof(double)]; };
-  const PhaseVector z =
-      RotorPhasor(field(offsetof(S, started)) != 0, field(offsetof(S, theta)),
-                  {field(offsetof(S, rotor_cos)), field(offsetof(S, rotor_sin))}, theta);
-  // Km at the step's starting winding temperature, as over the step (Advance).
-  const double torque_constant = thermal_
-                                     ? TorqueConstantAt(field(offsetof(S, winding_temperature)))
-                                     : constants_.torque_constant;
-  const auto [torque_em, torque_detent] =
-      Torques({field(offsetof(S, current_a)), field(offsetof(S, current_b))}, z, torque_constant);
+  return {
+      .rotor = RotorPhasor(field(offsetof(S, started)) != 0, field(offsetof(S, theta)),
+                           {field(offsetof(S, rotor_cos)), field(offsetof(S, rotor_sin))}, theta),
+      .current = {field(offsetof(S, current_a)), field(offsetof(S, current_b))},
+      // Km at the step's starting winding temperature, as over the step (Advance).
+      .torque_constant = thermal_ ? TorqueConstantAt(field(offsetof(S, winding_temperature)))
+                                  : constants_.torque_constant};
+}
+
+double Drive::StoredTorque(const double* values, double theta) const {
+  const StoredMotor s = ReadStored(values, theta);
+  const auto [torque_em, torque_detent] = Torques(s.current, s.rotor, s.torque_constant);
   return torque_em + torque_detent;
 }
 
 double Drive::StoredStiffness(const double* values, double theta) const {
-  using S = DriveCoreState;
-  auto field = [values](std::size_t offset) { return values[offset / sizeof(double)]; };
-  const PhaseVector z =
-      RotorPhasor(field(offsetof(S, started)) != 0, field(offsetof(S, theta)),
-                  {field(offsetof(S, rotor_cos)), field(offsetof(S, rotor_sin))}, theta);
-  const double torque_constant = thermal_
-                                     ? TorqueConstantAt(field(offsetof(S, winding_temperature)))
-                                     : constants_.torque_constant;
-  const PhaseVector current(field(offsetof(S, current_a)), field(offsetof(S, current_b)));
+  const StoredMotor s = ReadStored(values, theta);
   // S-4: ∂/∂θ Km·Im(z̄·i) = −Nr·Km·Re(z̄·i), z = e^{jNrθ}; S-5: ∂/∂θ −Im(Σh wh·z^h) =
   // −Nr·Re(Σh h·wh·z^h).
   PhaseVector detent(0, 0), power(1, 0);
   for (std::size_t h = 0; h < detent_weights_.size(); ++h) {
-    power *= z;
+    power *= s.rotor;
     detent += static_cast<double>(h + 1) * detent_weights_[h] * power;
   }
   return constants_.rotor_teeth *
-         (torque_constant * (std::conj(z) * current).real() + detent.real());
+         (s.torque_constant * (std::conj(s.rotor) * s.current).real() + detent.real());
 }
 
 DriveSignals Drive::Signals(const DriveState& s, double theta) const {

@@ -384,6 +384,13 @@ class Drive {
                           double theta) const;
   // τm + τdet from the currents, z = e^{jx} and Km alone: τdet = −Im(Σh wh·z^h), wh = Kdh·e^{jφh},
   // by Horner's rule.
+  // What the torque and its stiffness need of a started state's stored doubles, at θ.
+  struct StoredMotor {
+    PhaseVector rotor;       // e^{jNrθ}
+    PhaseVector current;     // ia + j·ib, A
+    double torque_constant;  // Km at the stored winding temperature, N·m/A
+  };
+  StoredMotor ReadStored(const double* values, double theta) const;
   std::pair<double, double> Torques(PhaseVector current, PhaseVector z,
                                     double torque_constant) const;
 
