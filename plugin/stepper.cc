@@ -410,6 +410,23 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
   }
 }
 
+double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuator) {
+  // MuJoCo clears actuator_force before the plugins: a stepper not computed yet this step has 0
+  // there, so its motor torque at the step's start is read from its own state.
+  const int instance = m->actuator_plugin[actuator];
+  if (instance < 0 || !IsStepperInstance(m, instance)) return d->actuator_force[actuator];
+  const Stepper& other = FromData(d, instance);
+  if (!other.drive_) return d->actuator_force[actuator];
+  for (size_t slot = 0; slot < other.actuators_.size(); ++slot) {
+    if (other.actuators_[slot].id != actuator) continue;
+    const double* values = other.Slot(m, d, instance, slot);
+    const double theta = d->actuator_length[other.actuators_[slot].outadr];
+    return Drive::Started(values) ? other.drive_->StoredTorque(values, theta)
+                                  : d->actuator_force[actuator];
+  }
+  return d->actuator_force[actuator];
+}
+
 double Stepper::ConsistentForce(const mjModel* m, mjData* d, const Actuator& a, double torque,
                                 double stiffness) {
   // C-2 (core/coupling.h) needs the rotor-side inertia J = 1/(r·M⁻¹·rᵀ) and the acceleration the
@@ -445,7 +462,7 @@ double Stepper::ConsistentForce(const mjModel* m, mjData* d, const Actuator& a, 
   }
   for (int j = 0; j < m->nu; ++j) {
     // Other actuators' forces; every actuator's damping (in qfrc_passive) taken out as the dofs'.
-    const double actuator = (j == a.outadr ? 0.0 : d->actuator_force[j]) +
+    const double actuator = (j == a.outadr ? 0.0 : OtherActuatorForce(m, d, j)) +
                             m->actuator_damping[j] * d->actuator_velocity[j];
     if (actuator == 0) continue;
     for (int k = d->moment_rowadr[j]; k < d->moment_rowadr[j] + d->moment_rownnz[j]; ++k) {

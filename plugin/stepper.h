@@ -94,6 +94,9 @@ class Stepper {
   /// motor's τ0 and stiffness k, with J and a_ext read from d (mass matrix, forces).
   static double ConsistentForce(const mjModel* m, mjData* d, const Actuator& a, double torque,
                                 double stiffness);
+  /// Actuator `actuator`'s force this step as far as known during a plugin's compute: a
+  /// stepper's motor torque at the step's start, any other actuator's actuator_force.
+  static double OtherActuatorForce(const mjModel* m, const mjData* d, int actuator);
   /// The rotor angle at the step's end t1 (qpos already integrated), rad.
   static double RotorAngleAtEnd(const mjModel* m, const mjData* d, const Actuator& a);
 
