@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cmath>
 #include <exception>
+#include <span>
 #include <string>
 #include <variant>
 
@@ -56,9 +57,13 @@ std::vector<int> BoundActuators(const mjModel* m, int instance) {
 }
 
 bool IsStepperInstance(const mjModel* m, int instance) {
-  int slot = -1;
-  return instance >= 0 && mjp_getPlugin(kPluginName, &slot) != nullptr &&
-         m->plugin[instance] == slot;
+  // The plugin's slot in MuJoCo's table, looked up once: registration happens once per process,
+  // and a slot never changes (this runs every step, from the consistent coupling).
+  static const int slot = [] {
+    int found = -1;
+    return mjp_getPlugin(kPluginName, &found) != nullptr ? found : -1;
+  }();
+  return instance >= 0 && slot >= 0 && m->plugin[instance] == slot;
 }
 
 static_assert(kMaxCommand == mjMAXVAL, "core's bound on a ctrl is MuJoCo's mju_isBad bound");
@@ -394,6 +399,7 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
     return;
   }
   if (!drive_) return;
+  bool consistent = false;
   for (size_t slot = 0; slot < actuators_.size(); ++slot) {
     const Actuator& a = actuators_[slot];
     // Torque from the currents at the step's start (as MuJoCo's dcmotor without actearly); the
@@ -401,13 +407,12 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
     const double* values = Slot(m, d, instance, slot);
     const double theta = d->actuator_length[a.outadr];
     const bool started = Drive::Started(values);
-    double torque = started ? drive_->StoredTorque(values, theta)
-                            : drive_->Torque(CurrentState(m, d, instance, slot), theta);
-    if (coupling_ == Coupling::kConsistent && started) {
-      torque = ConsistentForce(m, d, a, torque, drive_->StoredStiffness(values, theta));
-    }
-    d->actuator_force[a.outadr] = torque;
+    d->actuator_force[a.outadr] = started
+                                      ? drive_->StoredTorque(values, theta)
+                                      : drive_->Torque(CurrentState(m, d, instance, slot), theta);
+    consistent |= coupling_ == Coupling::kConsistent && started;
   }
+  if (consistent) ConsistentForces(m, d, instance);
 }
 
 double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuator) {
@@ -427,32 +432,70 @@ double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuat
   return d->actuator_force[actuator];
 }
 
-double Stepper::ConsistentForce(const mjModel* m, mjData* d, const Actuator& a, double torque,
-                                double stiffness) {
-  // C-2 (core/coupling.h) needs the rotor-side inertia J = 1/(r·M⁻¹·rᵀ) and the acceleration the
-  // model's other forces give the rotor coordinate, a_ext = r·M⁻¹·F, r the actuator's moment row
-  // (∂θ/∂q) and M this step's mass matrix (factorised before actuation). F is what MuJoCo will add
-  // up as qfrc_smooth + qfrc_constraint, less this actuator: this step's passive, bias (gravity,
-  // Coriolis), applied and xfrc forces (without the dofs' damping) and every other actuator's
-  // force (MuJoCo computes the
-  // built-in ones before the plugins; a stepper later in the model gives its previous step's),
-  // and the previous step's constraint forces (this step's come after actuation).
-  const int nv = m->nv;
+void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) {
+  // C-3 (core/coupling.h) over every started stepper with the consistent coupling in the model
+  // (an arm's steppers see each other through M); this instance writes its own rows. R: their
+  // moment rows; G = R·M⁻¹·Rᵀ from M factorised before actuation; a_ext = R·M⁻¹·F with F what
+  // MuJoCo will add up as qfrc_smooth + qfrc_constraint less these steppers: this step's passive
+  // (without the damping MuJoCo integrates implicitly: the dofs' and the actuators'), bias
+  // (gravity, Coriolis), applied and xfrc forces, every other actuator's force, and the previous
+  // step's constraint forces (this step's come after actuation).
+  // Per step, MuJoCo's stack only (three allocations): no heap for one stepper (C-2).
   mj_markStack(d);
-  mjtNum* x = mj_stackAllocNum(d, nv);
-  mjtNum* force = mj_stackAllocNum(d, nv);
-  mju_zero(x, nv);
-  const int begin = d->moment_rowadr[a.outadr], end = begin + d->moment_rownnz[a.outadr];
-  for (int k = begin; k < end; ++k) x[d->moment_colind[k]] = d->actuator_moment[k];
-  mj_solveM(m, d, x, x, 1);    // M⁻¹·rᵀ
-  double inverse_inertia = 0;  // 1/J = r·M⁻¹·rᵀ, 1/(kg·m²)
-  for (int k = begin; k < end; ++k) {
-    inverse_inertia += d->actuator_moment[k] * x[d->moment_colind[k]];
+  int* ids = mj_stackAllocInt(d, 2 * m->nu);  // the coupled actuators, then their instances
+  int* owners = ids + m->nu;
+  mjtNum* torque = mj_stackAllocNum(d, 2 * m->nu);  // τ0 (N·m), then k (N·m/rad)
+  mjtNum* stiffness = torque + m->nu;
+  int n = 0;
+  for (int j = 0; j < m->nu; ++j) {
+    const int owner = m->actuator_plugin[j];
+    if (owner < 0 || !IsStepperInstance(m, owner)) continue;
+    const Stepper& s = FromData(d, owner);
+    if (!s.drive_ || s.coupling_ != Coupling::kConsistent) continue;
+    for (size_t slot = 0; slot < s.actuators_.size(); ++slot) {
+      if (s.actuators_[slot].id != j) continue;
+      const double* values = s.Slot(m, d, owner, slot);
+      if (!Drive::Started(values)) continue;
+      const double theta = d->actuator_length[s.actuators_[slot].outadr];
+      ids[n] = j;
+      owners[n] = owner;
+      torque[n] = s.drive_->StoredTorque(values, theta);
+      stiffness[n] = s.drive_->StoredStiffness(values, theta);
+      ++n;
+    }
   }
-  for (int i = 0; i < nv; ++i) {
-    // The dofs' damping is left out: MuJoCo integrates it implicitly, and C-2 leaves it whole.
-    force[i] = d->qfrc_passive[i] + m->dof_damping[i] * d->qvel[i] - d->qfrc_bias[i] +
-               d->qfrc_applied[i] + d->qfrc_constraint[i];
+  const int nv = m->nv;
+  if (n == 0) {
+    mj_freeStack(d);
+    return;
+  }
+  auto row_of = [d](int actuator) {
+    const int begin = d->moment_rowadr[actuator];
+    return std::pair{begin, begin + d->moment_rownnz[actuator]};
+  };
+  mjtNum* rows = mj_stackAllocNum(d, n * nv + nv + n * n + n);  // R, then M⁻¹·Rᵀ row by row
+  mjtNum* force = rows + n * nv;                                // F, N·m or N
+  mjtNum* inverse_inertia = force + nv;                         // G, 1/(kg·m²), row-major
+  mjtNum* external = inverse_inertia + n * n;                   // a_ext, rad/s²
+  mju_zero(rows, n * nv);
+  for (int i = 0; i < n; ++i) {
+    const auto [begin, end] = row_of(ids[i]);
+    for (int k = begin; k < end; ++k) rows[i * nv + d->moment_colind[k]] = d->actuator_moment[k];
+  }
+  mj_solveM(m, d, rows, rows, n);  // M⁻¹·rᵢᵀ
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      const auto [begin, end] = row_of(ids[j]);
+      double g = 0;
+      for (int k = begin; k < end; ++k) {
+        g += d->actuator_moment[k] * rows[i * nv + d->moment_colind[k]];
+      }
+      inverse_inertia[i * n + j] = g;
+    }
+  }
+  for (int v = 0; v < nv; ++v) {
+    force[v] = d->qfrc_passive[v] + m->dof_damping[v] * d->qvel[v] - d->qfrc_bias[v] +
+               d->qfrc_applied[v] + d->qfrc_constraint[v];
   }
   for (int b = 1; b < m->nbody; ++b) {  // xfrc_applied at each body's centre of mass
     const mjtNum* wrench = d->xfrc_applied + 6 * b;
@@ -461,11 +504,12 @@ double Stepper::ConsistentForce(const mjModel* m, mjData* d, const Actuator& a, 
     }
   }
   for (int j = 0; j < m->nu; ++j) {
-    // Other actuators' forces; every actuator's damping (in qfrc_passive) taken out as the dofs'.
-    const double actuator = (j == a.outadr ? 0.0 : OtherActuatorForce(m, d, j)) +
+    const bool member = std::find(ids, ids + n, j) != ids + n;
+    const double actuator = (member ? 0.0 : OtherActuatorForce(m, d, j)) +
                             m->actuator_damping[j] * d->actuator_velocity[j];
     if (actuator == 0) continue;
-    for (int k = d->moment_rowadr[j]; k < d->moment_rowadr[j] + d->moment_rownnz[j]; ++k) {
+    const auto [begin, end] = row_of(j);
+    for (int k = begin; k < end; ++k) {
       force[d->moment_colind[k]] += d->actuator_moment[k] * actuator;
     }
   }
@@ -476,10 +520,22 @@ double Stepper::ConsistentForce(const mjModel* m, mjData* d, const Actuator& a, 
       force[v] += d->qfrc_gravcomp[v];
     }
   }
-  const double external = mju_dot(x, force, nv);  // a_ext = (M⁻¹·rᵀ)·F, rad/s²
+  for (int i = 0; i < n; ++i) external[i] = mju_dot(rows + i * nv, force, nv);  // (M⁻¹·rᵢᵀ)·F
+  const double h = m->opt.timestep;
+  if (n == 1) {  // C-2
+    if (owners[0] == instance && inverse_inertia[0] > 0) {
+      d->actuator_force[ids[0]] =
+          ConsistentTorque(torque[0], stiffness[0], 1.0 / inverse_inertia[0], external[0], h);
+    }
+  } else {
+    const std::vector<double> handed =
+        ConsistentTorques(std::span(inverse_inertia, n * n), std::span(stiffness, n),
+                          std::span(torque, n), std::span(external, n), h);  // C-3
+    for (int i = 0; i < n; ++i) {
+      if (owners[i] == instance) d->actuator_force[ids[i]] = handed[i];
+    }
+  }
   mj_freeStack(d);
-  if (!(inverse_inertia > 0)) return torque;
-  return ConsistentTorque(torque, stiffness, 1.0 / inverse_inertia, external, m->opt.timestep);
 }
 
 bool Stepper::WarnOnce(unsigned cause, const std::string& message) const {

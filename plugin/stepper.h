@@ -92,8 +92,7 @@ class Stepper {
   };
   /// C-2 of core/coupling.h for actuator `a`: the torque handed to MuJoCo this step, from the
   /// motor's τ0 and stiffness k, with J and a_ext read from d (mass matrix, forces).
-  static double ConsistentForce(const mjModel* m, mjData* d, const Actuator& a, double torque,
-                                double stiffness);
+  static void ConsistentForces(const mjModel* m, mjData* d, int instance);
   /// Actuator `actuator`'s force this step as far as known during a plugin's compute: a
   /// stepper's motor torque at the step's start, any other actuator's actuator_force.
   static double OtherActuatorForce(const mjModel* m, const mjData* d, int actuator);

@@ -1,5 +1,6 @@
 #include "core/coupling.h"
 
+#include <Eigen/Dense>
 #include <cmath>
 #include <numbers>
 
@@ -25,6 +26,41 @@ double ConsistentTorque(double torque, double stiffness, double inertia, double 
   }
   const double sigma = StiffnessScale(stiffness * h * h / inertia);  // C-1
   return sigma * torque + (sigma - 1.0) * inertia * external_accel;  // C-2
+}
+
+std::vector<double> ConsistentTorques(std::span<const double> inverse_inertia,
+                                      std::span<const double> stiffness,
+                                      std::span<const double> torque,
+                                      std::span<const double> external_accel, double h) {
+  const Eigen::Index n = static_cast<Eigen::Index>(torque.size());
+  std::vector<double> out(torque.begin(), torque.end());
+  using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const Eigen::Map<const Matrix> g_in(inverse_inertia.data(), n, n);
+  const Eigen::Map<const Eigen::VectorXd> k(stiffness.data(), n), tau(torque.data(), n),
+      external(external_accel.data(), n);
+  if (!(h > 0) || !std::isfinite(h) || !g_in.allFinite() || !k.allFinite() ||
+      !external.allFinite() || !tau.allFinite()) {
+    return out;
+  }
+  const Eigen::MatrixXd g = 0.5 * (g_in + g_in.transpose());  // symmetric to round-off
+  // G = V·diag(γ)·Vᵀ, γ > 0: G^½ and G^−½.
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> inertia(g);
+  if (inertia.info() != Eigen::Success || !(inertia.eigenvalues().minCoeff() > 0)) return out;
+  const Eigen::MatrixXd& v = inertia.eigenvectors();
+  const Eigen::VectorXd root_gamma = inertia.eigenvalues().cwiseSqrt();
+  const Eigen::MatrixXd root = v * root_gamma.asDiagonal() * v.transpose();
+  const Eigen::MatrixXd inverse_root = v * root_gamma.cwiseInverse().asDiagonal() * v.transpose();
+  // σ(h²·S), S = G^½·K·G^½ symmetric: σ(h²·λ) on each of its modes (C-1).
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> modes(root * k.asDiagonal() * root);
+  if (modes.info() != Eigen::Success) return out;
+  Eigen::VectorXd scale(n);
+  for (Eigen::Index i = 0; i < n; ++i) scale(i) = StiffnessScale(h * h * modes.eigenvalues()(i));
+  const Eigen::MatrixXd sigma = root * modes.eigenvectors() * scale.asDiagonal() *
+                                modes.eigenvectors().transpose() * inverse_root;  // σ(h²·A)
+  const Eigen::VectorXd accel = g * tau + external;                               // a0
+  const Eigen::VectorXd handed = g.ldlt().solve(sigma * accel - external);        // C-3
+  Eigen::Map<Eigen::VectorXd>(out.data(), n) = handed;
+  return out;
 }
 
 }  // namespace mjstepper

@@ -23,8 +23,19 @@
 // its pull-out angle, falling to the next step) grows as cosh; there σ is held at its value at
 // |ω|h = π (2.15), the linearisation being worthless over more. The timestep rule keeps models far
 // below both.
+//
+// Steppers coupled through the mass matrix (an arm's wrist rolls J4 and J6 about parallel axes) see
+// each other's springs too. For n steppers with moment rows R, G = R·M⁻¹·Rᵀ (the rotors' inverse
+// inertia matrix, symmetric positive definite), K = diag(k) and a_ext = R·M⁻¹·F, the linearised
+// rotors obey θ'' = G·(τ0 − K·Δθ) + a_ext, and C-1 applied mode by mode to A = G·K gives
+//     τ = G⁻¹·(σ(h²·A)·(G·τ0 + a_ext) − a_ext),                                 (C-3)
+// σ(h²·A) = G^½·σ(h²·G^½·K·G^½)·G^−½ (a symmetric eigenproblem, any sign of k). For one stepper C-3
+// is C-2.
 #ifndef MJSTEPPER_CORE_COUPLING_H_
 #define MJSTEPPER_CORE_COUPLING_H_
+
+#include <span>
+#include <vector>
 
 namespace mjstepper {
 
@@ -42,6 +53,16 @@ double StiffnessScale(double u);
 /// positive and finite.
 double ConsistentTorque(double torque, double stiffness, double inertia, double external_accel,
                         double h);
+
+/// C-3 for n coupled steppers: G (1/(kg·m²), n×n, row-major), their stiffnesses k (N·m/rad),
+/// torques at the step's start τ0 (N·m) and the other forces' rotor accelerations a_ext (rad/s²);
+/// the torques to hand the integrator. τ0 itself when G is not positive definite or h not
+/// positive and finite. (No Eigen type crosses this interface: callers may be built without the
+/// core's vector instructions.)
+std::vector<double> ConsistentTorques(std::span<const double> inverse_inertia,
+                                      std::span<const double> stiffness,
+                                      std::span<const double> torque,
+                                      std::span<const double> external_accel, double h);
 
 }  // namespace mjstepper
 

@@ -3,8 +3,13 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
+#include <complex>
 #include <numbers>
+#include <span>
+#include <vector>
 
 namespace mjstepper {
 namespace {
@@ -71,6 +76,53 @@ TEST(Coupling, StaticEquilibriumUnmoved) {
   EXPECT_NE(ConsistentTorque(tau0, k, J, 0.0, h), tau0);
   EXPECT_EQ(ConsistentTorque(tau0, k, 0.0, a_ext, h), tau0);
   EXPECT_EQ(ConsistentTorque(tau0, k, J, a_ext, 0.0), tau0);
+}
+
+// C-3 on two coupled rotors (G with an off-diagonal term, as an arm's parallel wrist axes give):
+// symplectic Euler with the handed torques is the exact map of the linearised pair, mode by mode:
+// its eigenvalues are e^(±jωᵢh) for the eigenfrequencies ωᵢ² of G·K, at ωᵢh up to 2.5; and C-3 on
+// one rotor is C-2.
+TEST(Coupling, CoupledRotorsRingAtTheirModes) {
+  Eigen::MatrixXd g(2, 2);
+  g << 1.0 / 4e-6, -0.6 / 4e-6, -0.6 / 4e-6, 1.0 / 2e-6;  // 1/(kg·m²)
+  Eigen::VectorXd k(2);
+  k << 13.5, 17.5;  // N·m/rad
+  const Eigen::EigenSolver<Eigen::MatrixXd> exact(g * k.asDiagonal());
+  const double fastest = std::sqrt(exact.eigenvalues().real().maxCoeff());  // rad/s
+  for (double wh : {0.3, 1.0, 2.5}) {
+    const double h = wh / fastest;
+    // The map of (θ1, θ2, v1, v2) over one step, column by column.
+    Eigen::MatrixXd map(4, 4);
+    for (int c = 0; c < 4; ++c) {
+      Eigen::VectorXd theta = Eigen::VectorXd::Zero(2), v = Eigen::VectorXd::Zero(2);
+      (c < 2 ? theta : v)(c % 2) = 1;
+      const Eigen::VectorXd tau = -(k.asDiagonal() * theta).eval();
+      const Eigen::Matrix<double, 2, 2, Eigen::RowMajor> rows = g;
+      const std::vector<double> zero(2, 0.0);
+      const std::vector<double> out = ConsistentTorques(
+          std::span(rows.data(), 4), std::span(k.data(), 2), std::span(tau.data(), 2), zero, h);
+      const Eigen::Vector2d handed(out[0], out[1]);
+      const Eigen::VectorXd v1 = v + h * g * handed;
+      map.col(c) << theta + h * v1, v1;
+    }
+    const Eigen::EigenSolver<Eigen::MatrixXd> step(map);
+    std::vector<double> angles, want;
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_NEAR(std::abs(step.eigenvalues()(i)), 1.0, 1e-9) << wh;  // no energy gained or lost
+      angles.push_back(std::abs(std::arg(step.eigenvalues()(i))));
+    }
+    for (int i = 0; i < 2; ++i) {
+      const double w = std::sqrt(exact.eigenvalues()(i).real());
+      want.insert(want.end(), {w * h, w * h});
+    }
+    std::sort(angles.begin(), angles.end());
+    std::sort(want.begin(), want.end());
+    for (int i = 0; i < 4; ++i) EXPECT_NEAR(angles[i], want[i], 1e-9) << wh;
+  }
+  // One rotor: C-3 is C-2.
+  const std::vector<double> one = {1 / 3.6e-5}, k1 = {28.5}, tau1 = {0.3}, a1 = {-500};
+  EXPECT_NEAR(ConsistentTorques(one, k1, tau1, a1, 1e-3)[0],
+              ConsistentTorque(0.3, 28.5, 3.6e-5, -500, 1e-3), 1e-12);
 }
 
 }  // namespace
