@@ -181,7 +181,10 @@ TimestepVerdict JudgeModelTimestep(const mjModel* m, const std::vector<ModalStep
   std::vector<RuleMode> rule;
   for (size_t i = 0; i < modes.size(); ++i)
     rule.push_back(ToRuleMode(modes[i], static_cast<int>(i)));
-  return JudgeTimestep(rule, m->opt.timestep, kMaxOmegaTimesStep);
+  // The strictest of the steppers' couplings (core/coupling.h, MaxOmegaTimesStep).
+  double limit = kMaxOmegaTimesStep;
+  for (const ModalStepper& s : steppers) limit = std::min(limit, s.max_omega_h);
+  return JudgeTimestep(rule, m->opt.timestep, limit);
 }
 
 }  // namespace mjstepper::plugin

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "core/drive.h"
 #include "core/timestep_rule.h"
 
 namespace mjstepper::plugin {
@@ -25,6 +26,8 @@ struct ModalStepper {
   std::string name;             ///< actuator name
   double stiffness = 0;         ///< T', N·m/rad on the rotor (Drive::HoldingStiffness)
   double detent_stiffness = 0;  ///< Σh h·Nr·Kdh, N·m/rad: the detent's worst case
+  /// The largest ω·h its coupling keeps within 1 % (core/coupling.h, MaxOmegaTimesStep).
+  double max_omega_h = kMaxOmegaTimesStep;
 };
 
 /// A stepper takes part in a mode when at least this fraction of the mode's potential energy is in

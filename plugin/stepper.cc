@@ -200,7 +200,8 @@ void Stepper::AddModalSteppers(const mjModel* m, std::vector<ModalStepper>* out)
     out->push_back({.actuator = a.id,
                     .name = NameOf(m, m->name_actuatoradr[a.id]),
                     .stiffness = drive_->HoldingStiffness(),
-                    .detent_stiffness = drive_->DetentStiffness()});
+                    .detent_stiffness = drive_->DetentStiffness(),
+                    .max_omega_h = MaxOmegaTimesStep(coupling_)});
   }
 }
 

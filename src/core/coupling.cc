@@ -6,6 +6,10 @@
 
 namespace mjstepper {
 
+double MaxOmegaTimesStep(Coupling coupling) {
+  return coupling == Coupling::kConsistent ? 0.2 : 0.15;  // docs/coupling.md, the ripple table
+}
+
 double StiffnessScale(double u) {
   if (!std::isfinite(u)) return 1.0;
   constexpr double kPiSquared = std::numbers::pi * std::numbers::pi;

@@ -44,6 +44,13 @@ enum class Coupling {
   kConsistent,  ///< C-2: the exact map of the linearised rotor over the step
 };
 
+/// The largest ω·h of a stepper mode that keeps the simulation within 1 % of a fine reference with
+/// this coupling, as measured (docs/coupling.md): the ring of the rotor (H3) holds to ω·h = 1 with
+/// the consistent coupling, but the velocity ripple of the Tsui sweep binds first, within 1 % up to
+/// ω·h = 0.2 with it (0.7 %; 1.3 % at 0.25) and up to 0.15 with the explicit one (0.62 %; 1.3 % at
+/// 0.2). The one timestep rule (core/timestep_rule.h) takes the strictest of a model's steppers.
+double MaxOmegaTimesStep(Coupling coupling);
+
 /// σ(u) of C-1, u = k·h²/J (dimensionless, any sign).
 double StiffnessScale(double u);
 

@@ -145,7 +145,7 @@ int Info(const std::string& path) {
         "  timestep {:g} s passes every mode with the detents' worst-case stiffness Σ h·Nr·Kdh "
         "added "
         "to T' (ω·h <= {:g}); the largest that does: {:.3g} s\n",
-        h, kMaxOmegaTimesStep, verdict.suggestion);
+        h, verdict.max_omega_h, verdict.suggestion);
   } else {
     fmt::print("  {}: {}\n", verdict.refuse() ? "warning" : "note",
                verdict.Message("the model", "\n    "));

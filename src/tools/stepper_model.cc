@@ -157,13 +157,15 @@ StepperModel LoadStepperModel(const std::string& path,
     auto read = [&](const char* key) {
       return mj_getPluginConfig(model.get(), drive_instance, key);
     };
-    auto parsed = plugin::ParseConfig(read);
+    auto parsed = plugin::ParseStepperConfig(read);
     if (auto* e = std::get_if<std::string>(&parsed)) throw std::runtime_error(*e);
+    const plugin::StepperConfig& config = std::get<plugin::StepperConfig>(parsed);
     const char* name = mj_id2name(model.get(), mjOBJ_ACTUATOR, a);
     out.steppers.push_back({.actuator = a,
                             .name = name != nullptr ? name : fmt::format("actuator{}", a),
                             .sensor_adr = model->sensor_adr[s],
-                            .config = std::get<DriveConfig>(parsed),
+                            .config = config.drive,
+                            .coupling = config.coupling,
                             .ctrladr = model->actuator_ctrladr[a],
                             .outadr = model->actuator_outadr[a]});
   }
@@ -259,7 +261,8 @@ std::vector<plugin::ModalStepper> ModalSteppers(const StepperModel& sm) {
     out.push_back({.actuator = s.actuator,
                    .name = s.name,
                    .stiffness = drive.HoldingStiffness(),
-                   .detent_stiffness = drive.DetentStiffness()});
+                   .detent_stiffness = drive.DetentStiffness(),
+                   .max_omega_h = MaxOmegaTimesStep(s.coupling)});
   }
   return out;
 }

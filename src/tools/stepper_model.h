@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "config_overrides.h"
+#include "core/coupling.h"
 #include "core/drive.h"
 #include "core/timestep_rule.h"
 #include "modes.h"
@@ -23,6 +24,7 @@ struct StepperActuator {
   std::string name;     ///< actuator name
   int sensor_adr = -1;  ///< first of kNumSignals values in sensordata
   DriveConfig config;   ///< parsed from the instance's <config> with the plugin's own parser
+  Coupling coupling = Coupling::kConsistent;  ///< the torque handed to MuJoCo (core/coupling.h)
   int ctrladr = 0;
   int outadr = 0;
 };
