@@ -416,21 +416,27 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
   if (consistent) ConsistentForces(m, d, instance);
 }
 
-double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuator) {
+double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuator, int output) {
   // MuJoCo clears actuator_force before the plugins: a stepper not computed yet this step has 0
-  // there, so its motor torque at the step's start is read from its own state.
+  // there, so its motor torque at the step's start is read from its own state. Built-in forces
+  // are taken as MuJoCo will apply them, within their forcerange.
   const int instance = m->actuator_plugin[actuator];
-  if (instance < 0 || !IsStepperInstance(m, instance)) return d->actuator_force[actuator];
-  const Stepper& other = FromData(d, instance);
-  if (!other.drive_) return d->actuator_force[actuator];
-  for (size_t slot = 0; slot < other.actuators_.size(); ++slot) {
-    if (other.actuators_[slot].id != actuator) continue;
-    const double* values = other.Slot(m, d, instance, slot);
-    const double theta = d->actuator_length[other.actuators_[slot].outadr];
-    return Drive::Started(values) ? other.drive_->StoredTorque(values, theta)
-                                  : d->actuator_force[actuator];
+  double force = d->actuator_force[output];
+  if (instance >= 0 && IsStepperInstance(m, instance)) {
+    const Stepper& other = FromData(d, instance);
+    for (size_t slot = 0; other.drive_ && slot < other.actuators_.size(); ++slot) {
+      if (other.actuators_[slot].id != actuator) continue;
+      const double* values = other.Slot(m, d, instance, slot);
+      if (Drive::Started(values)) {
+        force = other.drive_->StoredTorque(values, d->actuator_length[output]);
+      }
+    }
   }
-  return d->actuator_force[actuator];
+  if (m->actuator_forcelimited[actuator]) {
+    force = mju_clip(force, m->actuator_forcerange[2 * actuator],
+                     m->actuator_forcerange[2 * actuator + 1]);
+  }
+  return force;
 }
 
 void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) {
@@ -440,15 +446,16 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) {
   // MuJoCo will add up as qfrc_smooth + qfrc_constraint less these steppers: this step's passive
   // (without the damping MuJoCo integrates implicitly: the dofs' and the actuators'), bias
   // (gravity, Coriolis), applied and xfrc forces, every other actuator's force, and the previous
-  // step's constraint forces (this step's come after actuation).
-  // Per step, MuJoCo's stack only (three allocations): no heap for one stepper (C-2).
+  // step's constraint forces (this step's come after actuation). A stepper has one output
+  // (checked at load); moment rows, actuator_force and actuator_velocity are per output.
+  const int na = m->nactuator;
   mj_markStack(d);
-  int* ids = mj_stackAllocInt(d, 2 * m->nu);  // the coupled actuators, then their instances
-  int* owners = ids + m->nu;
-  mjtNum* torque = mj_stackAllocNum(d, 2 * m->nu);  // τ0 (N·m), then k (N·m/rad)
-  mjtNum* stiffness = torque + m->nu;
+  int* outputs = mj_stackAllocInt(d, 2 * na);  // the coupled steppers' outputs, then instances
+  int* owners = outputs + na;
+  mjtNum* torque = mj_stackAllocNum(d, 2 * na);  // τ0 (N·m), then k (N·m/rad)
+  mjtNum* stiffness = torque + na;
   int n = 0;
-  for (int j = 0; j < m->nu; ++j) {
+  for (int j = 0; j < na; ++j) {
     const int owner = m->actuator_plugin[j];
     if (owner < 0 || !IsStepperInstance(m, owner)) continue;
     const Stepper& s = FromData(d, owner);
@@ -457,8 +464,9 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) {
       if (s.actuators_[slot].id != j) continue;
       const double* values = s.Slot(m, d, owner, slot);
       if (!Drive::Started(values)) continue;
-      const double theta = d->actuator_length[s.actuators_[slot].outadr];
-      ids[n] = j;
+      const int output = s.actuators_[slot].outadr;
+      const double theta = d->actuator_length[output];
+      outputs[n] = output;
       owners[n] = owner;
       torque[n] = s.drive_->StoredTorque(values, theta);
       stiffness[n] = s.drive_->StoredStiffness(values, theta);
@@ -470,9 +478,9 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) {
     mj_freeStack(d);
     return;
   }
-  auto row_of = [d](int actuator) {
-    const int begin = d->moment_rowadr[actuator];
-    return std::pair{begin, begin + d->moment_rownnz[actuator]};
+  auto row_of = [d](int output) {
+    const int begin = d->moment_rowadr[output];
+    return std::pair{begin, begin + d->moment_rownnz[output]};
   };
   mjtNum* rows = mj_stackAllocNum(d, n * nv + nv + n * n + n);  // R, then M⁻¹·Rᵀ row by row
   mjtNum* force = rows + n * nv;                                // F, N·m or N
@@ -480,13 +488,13 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) {
   mjtNum* external = inverse_inertia + n * n;                   // a_ext, rad/s²
   mju_zero(rows, n * nv);
   for (int i = 0; i < n; ++i) {
-    const auto [begin, end] = row_of(ids[i]);
+    const auto [begin, end] = row_of(outputs[i]);
     for (int k = begin; k < end; ++k) rows[i * nv + d->moment_colind[k]] = d->actuator_moment[k];
   }
   mj_solveM(m, d, rows, rows, n);  // M⁻¹·rᵢᵀ
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < n; ++j) {
-      const auto [begin, end] = row_of(ids[j]);
+      const auto [begin, end] = row_of(outputs[j]);
       double g = 0;
       for (int k = begin; k < end; ++k) {
         g += d->actuator_moment[k] * rows[i * nv + d->moment_colind[k]];
@@ -504,14 +512,16 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) {
       mj_applyFT(m, d, wrench, wrench + 3, d->xipos + 3 * b, b, force);
     }
   }
-  for (int j = 0; j < m->nu; ++j) {
-    const bool member = std::find(ids, ids + n, j) != ids + n;
-    const double actuator = (member ? 0.0 : OtherActuatorForce(m, d, j)) +
-                            m->actuator_damping[j] * d->actuator_velocity[j];
-    if (actuator == 0) continue;
-    const auto [begin, end] = row_of(j);
-    for (int k = begin; k < end; ++k) {
-      force[d->moment_colind[k]] += d->actuator_moment[k] * actuator;
+  for (int j = 0; j < na; ++j) {
+    for (int o = m->actuator_outadr[j]; o < m->actuator_outadr[j] + m->actuator_outnum[j]; ++o) {
+      const bool member = std::find(outputs, outputs + n, o) != outputs + n;
+      const double actuator = (member ? 0.0 : OtherActuatorForce(m, d, j, o)) +
+                              m->actuator_damping[j] * d->actuator_velocity[o];
+      if (actuator == 0) continue;
+      const auto [begin, end] = row_of(o);
+      for (int k = begin; k < end; ++k) {
+        force[d->moment_colind[k]] += d->actuator_moment[k] * actuator;
+      }
     }
   }
   for (int j = 0; j < m->njnt; ++j) {  // gravity compensation counted with the actuators
@@ -525,15 +535,18 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) {
   const double h = m->opt.timestep;
   if (n == 1) {  // C-2
     if (owners[0] == instance && inverse_inertia[0] > 0) {
-      d->actuator_force[ids[0]] =
+      d->actuator_force[outputs[0]] =
           ConsistentTorque(torque[0], stiffness[0], 1.0 / inverse_inertia[0], external[0], h);
     }
   } else {
-    const std::vector<double> handed =
-        ConsistentTorques(std::span(inverse_inertia, n * n), std::span(stiffness, n),
-                          std::span(torque, n), std::span(external, n), h);  // C-3
-    for (int i = 0; i < n; ++i) {
-      if (owners[i] == instance) d->actuator_force[ids[i]] = handed[i];
+    try {  // C-3 allocates: no exception crosses into MuJoCo (τ0 stays on failure)
+      const std::vector<double> handed =
+          ConsistentTorques(std::span(inverse_inertia, n * n), std::span(stiffness, n),
+                            std::span(torque, n), std::span(external, n), h);
+      for (int i = 0; i < n; ++i) {
+        if (owners[i] == instance) d->actuator_force[outputs[i]] = handed[i];
+      }
+    } catch (...) {
     }
   }
   mj_freeStack(d);

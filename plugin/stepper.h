@@ -93,9 +93,10 @@ class Stepper {
   /// C-2 of core/coupling.h for actuator `a`: the torque handed to MuJoCo this step, from the
   /// motor's τ0 and stiffness k, with J and a_ext read from d (mass matrix, forces).
   static void ConsistentForces(const mjModel* m, mjData* d, int instance);
-  /// Actuator `actuator`'s force this step as far as known during a plugin's compute: a
-  /// stepper's motor torque at the step's start, any other actuator's actuator_force.
-  static double OtherActuatorForce(const mjModel* m, const mjData* d, int actuator);
+  /// Output `output` of actuator `actuator`: its force this step as far as known during a
+  /// plugin's compute (a stepper's motor torque at the step's start, any other actuator's
+  /// actuator_force), within the actuator's forcerange.
+  static double OtherActuatorForce(const mjModel* m, const mjData* d, int actuator, int output);
   /// The rotor angle at the step's end t1 (qpos already integrated), rad.
   static double RotorAngleAtEnd(const mjModel* m, const mjData* d, const Actuator& a);
 

@@ -82,9 +82,9 @@ def _actuator_id(model, actuator):
     except TypeError:
         raise TypeError(f"actuator must be a name (str) or an id (int), not "
                         f"{type(actuator).__name__} ({actuator!r})") from None
-    if not 0 <= actuator_id < model.nu:
-        raise IndexError(f"no actuator {actuator_id}: actuator ids are in [0, model.nu) = "
-                         f"[0, {model.nu})")
+    if not 0 <= actuator_id < model.nactuator:
+        raise IndexError(f"no actuator {actuator_id}: actuator ids are in "
+                         f"[0, model.nactuator) = [0, {model.nactuator})")
     return actuator_id
 
 
@@ -95,8 +95,8 @@ def _is_stepper(model, actuator_id):
 
 def _stepper_id(model, actuator):
     """The id of the stepper `actuator` (a name, or an id: any integer but a bool, in
-    [0, model.nu)): TypeError, KeyError, IndexError, or ValueError for an actuator that is not a
-    stepper."""
+    [0, model.nactuator)): TypeError, KeyError, IndexError, or ValueError for an actuator that is
+    not a stepper."""
     actuator_id = _actuator_id(model, actuator)
     if not _is_stepper(model, actuator_id):
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, actuator_id)
@@ -108,7 +108,7 @@ def _stepper_id(model, actuator):
 
 def signals(model, data, actuator):
     """{name: (value, unit)} of the stepper on `actuator` (its name, or its id: any integer in
-    [0, model.nu)), from its signal sensor (mjstepper.add_signal_sensors adds one to every
+    [0, model.nactuator)), from its signal sensor (mjstepper.add_signal_sensors adds one to every
     stepper). Raises TypeError for another kind of `actuator`, KeyError for an unknown name,
     IndexError for an id out of range, ValueError for an actuator that is not a stepper."""
     actuator_id = _stepper_id(model, actuator)

@@ -145,6 +145,15 @@ def _quiet(progress):
     return not progress
 
 
+def _items(value):
+    """A repeatable option's values: a lone str (or number) is one value, not its characters."""
+    if value is None:
+        return []
+    if isinstance(value, (str, bytes, numbers.Number)):
+        return [value]
+    return list(value)
+
+
 def run(model, duration, *, ctrl=None, log=None, log_every=None, set=(), load=None, mass=None,
         keyframe=None, allow_coarse=False, render=None, frames=None, camera=None, size=None,
         fps=None, playback=None, overlay=(), no_overlay=False, plot=None, accel_log=None,
@@ -155,9 +164,9 @@ def run(model, duration, *, ctrl=None, log=None, log_every=None, set=(), load=No
     traces=False). `set` ("shaft.damping=all", ...), `load` and `mass` ({name: value}) and the
     rest are the command's options (README, "The command")."""
     args = command_line("run", [model], dict(
-        duration=duration, ctrl=ctrl, log=log, log_every=log_every, set=list(set), load=load,
+        duration=duration, ctrl=ctrl, log=log, log_every=log_every, set=_items(set), load=load,
         mass=mass, keyframe=keyframe, allow_coarse=allow_coarse, render=render, frames=frames,
-        camera=camera, size=size, fps=fps, playback=playback, overlay=list(overlay),
+        camera=camera, size=size, fps=fps, playback=playback, overlay=_items(overlay),
         no_overlay=no_overlay, plot=plot, accel_log=accel_log, accelerometer=accelerometer,
         quiet=_quiet(progress)))
     r = _engine.compute(args, traces)
@@ -171,7 +180,7 @@ def sweep_args(model, speeds, *, actuator=None, settle=None, measure=None, threa
                out=None, progress=False):
     return command_line("sweep", [model], dict(
         speeds=speeds_text(speeds), actuator=actuator, settle=settle, measure=measure,
-        threads=threads, set=list(set), out=out, quiet=_quiet(progress)))
+        threads=threads, set=_items(set), out=out, quiet=_quiet(progress)))
 
 
 def sweep(model, speeds, **options):
@@ -188,7 +197,7 @@ def map_args(model, speeds, vary, *, actuator=None, settle=None, measure=None, t
     text = f"{_text('vary', parameter)}=" + ",".join(_number("vary", v) for v in values)
     return command_line("map", [model], dict(
         speeds=speeds_text(speeds), vary=text, actuator=actuator, settle=settle, measure=measure,
-        threads=threads, set=list(set), out=out, quiet=_quiet(progress)))
+        threads=threads, set=_items(set), out=out, quiet=_quiet(progress)))
 
 
 def map(model, speeds, vary, **options):
@@ -203,7 +212,7 @@ def pullout_args(model, speeds, *, actuator=None, rate=None, max_torque=None, th
                  set=(), out=None, progress=False):
     return command_line("pullout", [model], dict(
         speeds=speeds_text(speeds), actuator=actuator, rate=rate, max_torque=max_torque,
-        threads=threads, set=list(set), out=out, quiet=_quiet(progress)))
+        threads=threads, set=_items(set), out=out, quiet=_quiet(progress)))
 
 
 def pullout(model, speeds, **options):
@@ -217,7 +226,7 @@ def identify(model, speeds="10,30rpm", *, actuator=None, dyno=None, orders=None,
     """`mjstepper identify`: Tsui's bench; the detent harmonics, Fs and B (Identified)."""
     r = _engine.compute(command_line("identify", [model], dict(
         speeds=speeds_text(speeds), actuator=actuator, dyno=dyno,
-        orders=None if orders is None else list(orders), set=list(set))), False)
+        orders=None if orders is None else _items(orders), set=_items(set))), False)
     return Identified(harmonics=Table(r["harmonics"]), static_friction=r["static_friction"],
                       viscous_damping=r["viscous_damping"], residual_rms=r["residual_rms"],
                       damping_detent=r["damping_detent"])
@@ -232,7 +241,7 @@ def resonance_test(model, axis, out, *, min_freq=None, max_freq=None, accel_per_
     r = _engine.compute(command_line("resonance-test", [model], dict(
         axis=axis, out=out, min_freq=min_freq, max_freq=max_freq, accel_per_hz=accel_per_hz,
         hz_per_sec=hz_per_sec, accelerometer=accelerometer, accel_rate=accel_rate,
-        accel_range=accel_range, accel_noise=accel_noise, seed=seed, set=list(set),
+        accel_range=accel_range, accel_noise=accel_noise, seed=seed, set=_items(set),
         quiet=_quiet(progress))), False)
     return ResonanceTest(psd=Table(r["psd"]), fits=Table(r["fits"]),
                          peak_frequency=r["peak_frequency"], recommended=r["recommended"],

@@ -117,9 +117,11 @@ def sweep(model, speeds, *, address=None, out=None, progress=True, **options):
 
 def map(model, speeds, vary, *, address=None, out=None, progress=True, **options):
     """mjstepper.map on Ray, one task per (value, speed); the same Table and files."""
+    parameter, values = vary
+    values = list(values)  # read twice below: a generator would be empty the second time
+    vary = (parameter, values)
     args = _experiments.map_args(model, speeds, vary, out=out, **options)
     _engine.check(args)
-    parameter, values = vary
     speed_list = _engine.parse_speeds(_experiments.speeds_text(speeds))
     runs = [(s, {"vary": (parameter, [v])}) for v in values for s in speed_list]
     table = _concatenate(_run("map", model, runs, options, address, progress, "map"),

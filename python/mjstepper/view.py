@@ -100,7 +100,8 @@ class Plots:
     def sample(self, data, actuator, sensor_adr):
         s = data.sensordata[sensor_adr:sensor_adr + len(SIGNALS)]
         get = dict(zip(SIGNALS, s))
-        self.history.append((data.time, data.actuator_velocity[actuator] * RPM,
+        speed = data.actuator_velocity[self.model.actuator_outadr[actuator]]  # rad/s
+        self.history.append((data.time, speed * RPM,
                              get["omega_cmd"] * RPM, get["current_a"], get["current_b"],
                              get["load_angle"]))
         while self.history and self.history[0][0] < data.time - self.window:
@@ -165,7 +166,7 @@ def main(argv=None):
         lo, hi = model.actuator_ctrlrange[ids[current]]
         if not lo <= args.ctrl <= hi:
             parser.error(f"--ctrl {args.ctrl}: outside the slider's range [{lo:g}, {hi:g}]")
-        data.ctrl[ids[current]] = args.ctrl
+        data.ctrl[model.actuator_ctrladr[ids[current]]] = args.ctrl
     mujoco.mj_forward(model, data)
     plots = Plots(model, args.window)
     drawn = 0
@@ -193,7 +194,8 @@ def main(argv=None):
                 viewer.set_texts((mujoco.mjtFontScale.mjFONTSCALE_150,
                                   mujoco.mjtGridPos.mjGRID_TOPLEFT,
                                   f"stepper {current}\ncommand (slider)\nlost steps\nwinding",
-                                  f"{len(names)} in the model\n{data.ctrl[a]:.4g}\n"
+                                  f"{len(names)} in the model\n"
+                                  f"{data.ctrl[model.actuator_ctrladr[a]]:.4g}\n"
                                   f"{get['lost_steps']:g}\n{get['winding_temperature']:.1f} C"))
                 if not args.no_plots and viewer.viewport is not None:
                     drawn = plots.update()
@@ -204,9 +206,9 @@ def main(argv=None):
             a = ids[current]
             with open(args.report, "w") as f:
                 json.dump({"stepper": current, "time": data.time,
-                           "ctrl": float(data.ctrl[a]),
+                           "ctrl": float(data.ctrl[model.actuator_ctrladr[a]]),
                            "ctrlrange": [float(x) for x in model.actuator_ctrlrange[a]],
-                           "speed": float(data.actuator_velocity[a]),
+                           "speed": float(data.actuator_velocity[model.actuator_outadr[a]]),
                            "mean_speed": float(np.mean([h[1] for h in plots.history
                                                         if h[0] >= data.time - 0.5]) / RPM),
                            "plotted_points": drawn}, f)

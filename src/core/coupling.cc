@@ -49,7 +49,12 @@ std::vector<double> ConsistentTorques(std::span<const double> inverse_inertia,
   const Eigen::MatrixXd g = 0.5 * (g_in + g_in.transpose());  // symmetric to round-off
   // G = V·diag(γ)·Vᵀ, γ > 0: G^½ and G^−½.
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> inertia(g);
-  if (inertia.info() != Eigen::Success || !(inertia.eigenvalues().minCoeff() > 0)) return out;
+  // Positive definite to well within round-off (two steppers on one joint make G singular): else
+  // the steppers keep their torques at the step's start.
+  if (inertia.info() != Eigen::Success ||
+      !(inertia.eigenvalues().minCoeff() > 1e-9 * inertia.eigenvalues().maxCoeff())) {
+    return out;
+  }
   const Eigen::MatrixXd& v = inertia.eigenvectors();
   const Eigen::VectorXd root_gamma = inertia.eigenvalues().cwiseSqrt();
   const Eigen::MatrixXd root = v * root_gamma.asDiagonal() * v.transpose();

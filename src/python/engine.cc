@@ -197,12 +197,14 @@ nb::dict ToPython(const Command& c, const Result& result) {
 template <class Row, size_t N>
 std::vector<Row> RowsFrom(const Column<Row> (&columns)[N], const nb::dict& values) {
   std::vector<Row> rows;
+  bool first = true;  // the first column sets the length every other must have
   for (const Column<Row>& c : columns) {
     if (!values.contains(c.name)) {
       throw std::invalid_argument(fmt::format("write_outputs: no column '{}'", c.name));
     }
     const std::vector<double> v = nb::cast<std::vector<double>>(values[c.name]);
-    if (rows.empty()) rows.resize(v.size());
+    if (first) rows.resize(v.size());
+    first = false;
     if (v.size() != rows.size()) {
       throw std::invalid_argument(fmt::format("write_outputs: column '{}' has {} rows, not {}",
                                               c.name, v.size(), rows.size()));

@@ -405,7 +405,7 @@ class HostileArguments(unittest.TestCase):
                 mjstepper.signals(model, data, actuator)
             message = str(ctx.exception)
             self.assertIn(f"no actuator {int(actuator)}", message)
-            self.assertIn("[0, model.nu) = [0, 2)", message)
+            self.assertIn("[0, model.nactuator) = [0, 2)", message)
             self.assertNotIn("sensor", message)
         for actuator in ("plain", 1):
             with self.assertRaises(ValueError) as ctx:
