@@ -13,7 +13,9 @@ import collections
 import json
 import math
 import os
+import stat
 import sys
+import tempfile
 import threading
 import time
 
@@ -131,6 +133,21 @@ class Plots:
                 for k, fig in enumerate(reversed(self.figures))]
 
 
+def _write_whole(path, summary):
+    """JSON into a new temporary beside `path`, renamed over it: never half-written, and only ever
+    replacing a regular file (a link, FIFO or device is refused, as by the command)."""
+    if os.path.lexists(path) and not stat.S_ISREG(os.lstat(path).st_mode):
+        raise SystemExit(f"--report {path}: not a regular file; outputs replace only those")
+    fd, temporary = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(summary, f)
+        os.replace(temporary, path)
+    except BaseException:
+        os.unlink(temporary)
+        raise
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m mjstepper.view", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -145,6 +162,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if not 0.1 <= args.window <= 60:
         parser.error(f"--window {args.window}: must be in [0.1, 60] s")
+    if args.duration is not None and not 0 < args.duration <= 1e6:
+        parser.error(f"--duration {args.duration}: must be in (0, 1e6] s")
 
     model, names = load(args.model)
     if args.stepper is not None and args.stepper not in names:
@@ -204,14 +223,13 @@ def main(argv=None):
             time.sleep(1 / 60)
         if args.report:
             a = ids[current]
-            with open(args.report, "w") as f:
-                json.dump({"stepper": current, "time": data.time,
+            _write_whole(args.report, {"stepper": current, "time": data.time,
                            "ctrl": float(data.ctrl[model.actuator_ctrladr[a]]),
                            "ctrlrange": [float(x) for x in model.actuator_ctrlrange[a]],
                            "speed": float(data.actuator_velocity[model.actuator_outadr[a]]),
                            "mean_speed": float(np.mean([h[1] for h in plots.history
                                                         if h[0] >= data.time - 0.5]) / RPM),
-                           "plotted_points": drawn}, f)
+                           "plotted_points": drawn})
             time.sleep(float(os.environ.get("MJSTEPPER_VIEW_HOLD", "0")))  # a test's screenshot
     # close() only asks the viewer's (daemon) thread to stop: wait until it has destroyed its
     # window, or it may still be doing so when glfw.terminate runs at exit (a segfault in GLFW).

@@ -54,6 +54,16 @@ class View(unittest.TestCase):
         self.assertGreater(yellow, 200)  # the line: about 700 pixels at 640×480
         self.assertLess(without, 5)
 
+    def test_bounds_are_named_before_any_window(self):
+        model = os.path.join(SOURCE, "models", "tsui_rigid.xml")
+        for args, words in ((["--duration", "-1"], "--duration -1.0: must be in (0, 1e6] s"),
+                            (["--window", "100"], "--window 100.0: must be in [0.1, 60] s"),
+                            (["--stepper", "nothing"], "--stepper nothing: not a stepper")):
+            result = subprocess.run([sys.executable, "-m", "mjstepper.view", model, *args],
+                                    capture_output=True, text=True, timeout=60)
+            self.assertNotEqual(result.returncode, 0)
+            self.assertIn(words, result.stderr)
+
 
 if __name__ == "__main__":
     unittest.main(argv=sys.argv[:1], verbosity=2)
