@@ -9,6 +9,7 @@
 #include <exception>
 #include <span>
 #include <string>
+#include <string_view>
 #include <variant>
 
 #include "config.h"
@@ -353,6 +354,20 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
               .c_str());
     }
   }
+  // The model's steppers with the consistent coupling (this one's and every other instance's), in
+  // actuator order, for C-3 each step: which they are depends only on the model.
+  for (int j = 0; j < m->nactuator; ++j) {
+    const int owner = m->actuator_plugin[j];
+    if (owner < 0 || !IsStepperInstance(m, owner)) continue;
+    const char* coupling = mj_getPluginConfig(m, owner, "coupling");
+    if (coupling != nullptr && std::string_view(coupling) == "explicit") continue;
+    const std::vector<int> owned = BoundActuators(m, owner);  // a drive's slots, in id order
+    const auto slot = std::find(owned.begin(), owned.end(), j) - owned.begin();
+    stepper->coupled_.push_back({.actuator = j,
+                                 .instance = owner,
+                                 .slot = static_cast<int>(slot),
+                                 .output = m->actuator_outadr[j]});
+  }
   return stepper;
 }
 
@@ -439,7 +454,7 @@ double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuat
   return force;
 }
 
-void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) {
+void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) const {
   // C-3 (core/coupling.h) over every started stepper with the consistent coupling in the model
   // (an arm's steppers see each other through M); this instance writes its own rows. R: their
   // moment rows; G = R·M⁻¹·Rᵀ from M factorised before actuation; a_ext = R·M⁻¹·F with F what
@@ -448,30 +463,23 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) {
   // (gravity, Coriolis), applied and xfrc forces, every other actuator's force, and the previous
   // step's constraint forces (this step's come after actuation). A stepper has one output
   // (checked at load); moment rows, actuator_force and actuator_velocity are per output.
-  const int na = m->nactuator;
+  const int na = static_cast<int>(coupled_.size());  // at most this many rows
   mj_markStack(d);
-  int* outputs = mj_stackAllocInt(d, 2 * na);  // the coupled steppers' outputs, then instances
+  int* outputs = mj_stackAllocInt(d, 2 * na);  // the started ones' outputs, then instances
   int* owners = outputs + na;
   mjtNum* torque = mj_stackAllocNum(d, 2 * na);  // τ0 (N·m), then k (N·m/rad)
   mjtNum* stiffness = torque + na;
   int n = 0;
-  for (int j = 0; j < na; ++j) {
-    const int owner = m->actuator_plugin[j];
-    if (owner < 0 || !IsStepperInstance(m, owner)) continue;
-    const Stepper& s = FromData(d, owner);
-    if (!s.drive_ || s.coupling_ != Coupling::kConsistent) continue;
-    for (size_t slot = 0; slot < s.actuators_.size(); ++slot) {
-      if (s.actuators_[slot].id != j) continue;
-      const double* values = s.Slot(m, d, owner, slot);
-      if (!Drive::Started(values)) continue;
-      const int output = s.actuators_[slot].outadr;
-      const double theta = d->actuator_length[output];
-      outputs[n] = output;
-      owners[n] = owner;
-      torque[n] = s.drive_->StoredTorque(values, theta);
-      stiffness[n] = s.drive_->StoredStiffness(values, theta);
-      ++n;
-    }
+  for (const CoupledActuator& c : coupled_) {
+    const Stepper& s = FromData(d, c.instance);
+    const double* values = s.Slot(m, d, c.instance, c.slot);
+    if (!s.drive_ || !Drive::Started(values)) continue;
+    const double theta = d->actuator_length[c.output];
+    outputs[n] = c.output;
+    owners[n] = c.instance;
+    torque[n] = s.drive_->StoredTorque(values, theta);
+    stiffness[n] = s.drive_->StoredStiffness(values, theta);
+    ++n;
   }
   const int nv = m->nv;
   if (n == 0) {
@@ -512,7 +520,7 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) {
       mj_applyFT(m, d, wrench, wrench + 3, d->xipos + 3 * b, b, force);
     }
   }
-  for (int j = 0; j < na; ++j) {
+  for (int j = 0; j < m->nactuator; ++j) {
     for (int o = m->actuator_outadr[j]; o < m->actuator_outadr[j] + m->actuator_outnum[j]; ++o) {
       const bool member = std::find(outputs, outputs + n, o) != outputs + n;
       const double actuator = (member ? 0.0 : OtherActuatorForce(m, d, j, o)) +

@@ -92,7 +92,7 @@ class Stepper {
   };
   /// C-2 of core/coupling.h for actuator `a`: the torque handed to MuJoCo this step, from the
   /// motor's τ0 and stiffness k, with J and a_ext read from d (mass matrix, forces).
-  static void ConsistentForces(const mjModel* m, mjData* d, int instance);
+  void ConsistentForces(const mjModel* m, mjData* d, int instance) const;
   /// Output `output` of actuator `actuator`: its force this step as far as known during a
   /// plugin's compute (a stepper's motor torque at the step's start, any other actuator's
   /// actuator_force), within the actuator's forcerange.
@@ -125,6 +125,14 @@ class Stepper {
   int state_size_ = 0;          // doubles of plugin_state per actuator: drive_->layout().total()
   bool gauge_ = true;
   Coupling coupling_ = Coupling::kConsistent;
+  // The model's stepper actuators with the consistent coupling, found at load (C-3's rows).
+  struct CoupledActuator {
+    int actuator = -1;
+    int instance = -1;  // the drive instance that owns it
+    int slot = 0;       // its slot in that instance's plugin_state
+    int output = 0;     // its output (moment row, actuator_force)
+  };
+  std::vector<CoupledActuator> coupled_;
   // The causes (bit 1 << Cause) already reported by this instance on this mjData: a diagnostic,
   // not simulation state.
   mutable std::atomic<unsigned> warned_{0};

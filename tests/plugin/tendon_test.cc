@@ -103,6 +103,14 @@ TEST(TendonTransmission, MotionEqualsTheJointEquivalent) {
   }
 }
 
+// A held rotor (position input on its start angle, detent off, 1.9 A), and the carriage's fixed
+// tendon L = 2x (gear 50) and spatial cable L = x + 0.05 (gear 100): both moment 100 rad/m.
+std::string HeldConfigs() {
+  return Config("input", "position") + Config("detent", "none") + Config("hold_current", "1.9");
+}
+const Transmission kCarriageTransmissions[] = {{"fixed", R"(tendon="fixed2" gear="50")", 100.0},
+                                               {"spatial", R"(tendon="cable" gear="100")", 100.0}};
+
 // Holding stiffness along the tendon: a held rotor resists a carriage force F with the closed
 // form K = T'·(gear·∂L/∂x)², so x = F/K. Fixed tendon L = 2x, gear 50 and spatial L = x + 0.05,
 // gear 100: both K = 28.5·100² = 2.85e5 N/m. Tolerance 2e-4 (measured 1.3e-4): the torque is
@@ -111,10 +119,8 @@ TEST(TendonTransmission, MotionEqualsTheJointEquivalent) {
 // transmission moves the same to the bit, test above); the slide's damping (ζ ≈ 0.3) has settled
 // the carriage to 3e-6 of x in 0.2 s. Without the factor (gear·∂L/∂x)² x would be off 1e4-fold.
 TEST(TendonTransmission, HoldingStiffnessAlongTheTendonIsTPrimeTimesMomentSquared) {
-  const std::string configs =
-      Config("input", "position") + Config("detent", "none") + Config("hold_current", "1.9");
-  for (const Transmission& t : {Transmission{"fixed", R"(tendon="fixed2" gear="50")", 100.0},
-                                Transmission{"spatial", R"(tendon="cable" gear="100")", 100.0}}) {
+  const std::string configs = HeldConfigs();
+  for (const Transmission& t : kCarriageTransmissions) {
     std::string error;
     const ModelPtr m = LoadModel(CarriageModel(t.attributes, configs, R"(damping="300")"), &error);
     ASSERT_TRUE(m) << t.name << ": " << error;
@@ -139,10 +145,8 @@ TEST(TendonTransmission, HoldingStiffnessAlongTheTendonIsTPrimeTimesMomentSquare
 // (plugin_test.cc): the ramp during the run from δ = π/2 to the counting threshold, and the
 // current loop's error at that speed.
 TEST(TendonTransmission, PullOutAndLostStepsAlongTheTendon) {
-  const std::string configs =
-      Config("input", "position") + Config("detent", "none") + Config("hold_current", "1.9");
-  for (const Transmission& t : {Transmission{"fixed", R"(tendon="fixed2" gear="50")", 100.0},
-                                Transmission{"spatial", R"(tendon="cable" gear="100")", 100.0}}) {
+  const std::string configs = HeldConfigs();
+  for (const Transmission& t : kCarriageTransmissions) {
     std::string error;
     const ModelPtr m = LoadModel(CarriageModel(t.attributes, configs), &error);
     ASSERT_TRUE(m) << t.name << ": " << error;
