@@ -177,6 +177,49 @@ CommandProfile CommandProfile::ParseShaped(const std::string& whole, const std::
   return p;
 }
 
+// targets(A0, A1@T1, A2@T2, …): A0 from t = 0 (or A0@T0), each angle from its time on.
+CommandProfile CommandProfile::ParseTargets(const std::string& whole, const std::string& inner,
+                                            std::optional<double> rad_per_metre) {
+  auto bad = [&](const std::string& why) {
+    return std::invalid_argument(fmt::format(
+        "profile \"{}\": {}; expected targets(ANGLE, ANGLE@TIME, …), times rising from 0, e.g. "
+        "targets(0deg, 90deg@0.5s, 0deg@2s)",
+        whole, why));
+  };
+  std::vector<Target> targets;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = inner.find(',', start);
+    const std::string item = inner.substr(start, comma - start);
+    const size_t at = item.find('@');
+    Target target;
+    const Quantity angle = ParseQuantity(item.substr(0, at), whole, rad_per_metre);
+    if (angle.dim != Dim::kAngle) throw bad(fmt::format("\"{}\" is not an angle", Trim(item)));
+    target.angle = angle.value;
+    if (at != std::string::npos) {
+      const Quantity time = ParseQuantity(item.substr(at + 1), whole, rad_per_metre);
+      if (time.dim != Dim::kTime || !(time.value >= 0)) {
+        throw bad(fmt::format("\"{}\": the time after @ must be >= 0 s", Trim(item)));
+      }
+      target.time = time.value;
+    } else if (!targets.empty()) {
+      throw bad(fmt::format("\"{}\" has no @TIME (only the first target may omit it)", Trim(item)));
+    }
+    if (!targets.empty() && !(target.time > targets.back().time)) {
+      throw bad(fmt::format("\"{}\": times must rise", Trim(item)));
+    }
+    if (targets.size() >= kMaxTargets) throw bad(fmt::format("more than {} targets", kMaxTargets));
+    targets.push_back(target);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  CommandProfile p;
+  p.text_ = whole;
+  p.kind_ = Kind::kTargets;
+  p.targets_ = std::make_shared<const std::vector<Target>>(std::move(targets));
+  return p;
+}
+
 CommandProfile CommandProfile::Parse(std::string_view text, std::optional<double> rad_per_metre) {
   const std::string whole(text);
   const size_t open = whole.find('(');
@@ -185,7 +228,7 @@ CommandProfile CommandProfile::Parse(std::string_view text, std::optional<double
       !Trim(whole.substr(close + 1)).empty()) {
     throw std::invalid_argument(
         fmt::format("profile \"{}\": expected constant(…), ramp(…, …, …), trapezoid(…, …, …, …), "
-                    "steps(FILE) or shaped(PROFILE, SHAPER)",
+                    "targets(…), steps(FILE) or shaped(PROFILE, SHAPER)",
                     whole));
   }
   const std::string name = Trim(whole.substr(0, open));
@@ -200,8 +243,9 @@ CommandProfile CommandProfile::Parse(std::string_view text, std::optional<double
         StepTimes::Read(Trim(whole.substr(open + 1, close - open - 1))));
     return p;
   }
-  std::vector<Quantity> args;
   std::string inner = whole.substr(open + 1, close - open - 1);
+  if (name == "targets") return ParseTargets(whole, inner, rad_per_metre);
+  std::vector<Quantity> args;
   size_t start = 0;
   while (true) {
     const size_t comma = inner.find(',', start);
@@ -260,7 +304,7 @@ CommandProfile CommandProfile::Parse(std::string_view text, std::optional<double
     p.t3_ = args[3].value;
   } else {
     throw bad(
-        "constant(…), ramp(…, …, …), trapezoid(…, …, …, …), steps(FILE) or "
+        "constant(…), ramp(…, …, …), trapezoid(…, …, …, …), targets(…), steps(FILE) or "
         "shaped(PROFILE, SHAPER)");
   }
   return p;
@@ -302,6 +346,7 @@ double CommandProfile::RawSpeed(double t, double step_angle) const {
     case Kind::kConstantSpeed:
       return a_;
     case Kind::kAngleHold:
+    case Kind::kTargets:
       return 0.0;
     case Kind::kSpeedRamp:
       return t <= 0 ? a_ : t >= t1_ ? b_ : a_ + (b_ - a_) * t / t1_;
@@ -326,6 +371,12 @@ double CommandProfile::RawAngle(double t, double step_angle) const {
       return a_ * t;
     case Kind::kAngleHold:
       return a_;
+    case Kind::kTargets: {  // the last target whose time has come (the first before it)
+      const auto next =
+          std::upper_bound(targets_->begin(), targets_->end(), t,
+                           [](double time, const Target& x) { return time < x.time; });
+      return next == targets_->begin() ? next->angle : std::prev(next)->angle;
+    }
     case Kind::kSpeedRamp: {
       if (t <= 0) return a_ * t;
       const double tr = std::min(t, t1_);

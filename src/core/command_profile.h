@@ -6,6 +6,9 @@
 //   ramp(0rad, 3.1416rad, 1s)        angle ramp (constant speed), then hold the final angle
 //   trapezoid(200rpm, 0.2s, 0.5s, 0.2s)  0 → peak in Ta, cruise Tc, → 0 in Td, then rest (Ta and
 //                                    Td may be accelerations: Ta = |peak|/a)
+//   targets(0deg, 90deg@0.5s, 0deg@2s)  angle targets, each from its time on (absolute; times
+//                                    rising): waypoints for a position-input drive whose own
+//                                    motion profile moves between them (`mjstepper size`)
 //   steps(moves.txt)                 STEP/DIR pulses from a step-time list (step_times.h), for
 //                                    drives with input = steps: the count at t
 //   shaped(PROFILE, mzv 40Hz)        PROFILE through an input shaper (shaper.h): TYPE (zv, mzv,
@@ -26,6 +29,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "core/drive.h"
 #include "core/shaper.h"
@@ -42,6 +46,8 @@ inline constexpr double kMaxProfileAngle = 1e7;  // rad
 inline constexpr double kMaxProfileTime = 1e6;   // s
 /// An acceleration: the bound of speed over a 1 µs ramp, 1e10 rad/s².
 inline constexpr double kMaxProfileAcceleration = 1e10;  // rad/s²
+/// The most targets a targets(…) profile holds (a robot's program, not a sampled trajectory).
+inline constexpr size_t kMaxTargets = 100000;
 
 class CommandProfile {
  public:
@@ -60,8 +66,10 @@ class CommandProfile {
   bool step_list() const { return kind_ == Kind::kStepList; }
   /// The input shaper of shaped(…), or nullptr.
   const InputShaper* shaper() const { return shaper_.get(); }
-  /// True for angle profiles (constant(…rad), ramp(…rad, …rad, T)).
-  bool absolute_angle() const { return kind_ == Kind::kAngleHold || kind_ == Kind::kAngleRamp; }
+  /// True for angle profiles (constant(…rad), ramp(…rad, …rad, T), targets(…)).
+  bool absolute_angle() const {
+    return kind_ == Kind::kAngleHold || kind_ == Kind::kAngleRamp || kind_ == Kind::kTargets;
+  }
 
   /// The control for the simulation step [t, t + h]: the mean speed over the step (velocity input,
   /// so that the drive's integrated θcmd matches Angle at step ends), or the angle at mid-step
@@ -74,9 +82,23 @@ class CommandProfile {
   const std::string& text() const { return text_; }
 
  private:
-  enum class Kind { kConstantSpeed, kAngleHold, kSpeedRamp, kAngleRamp, kTrapezoid, kStepList };
+  enum class Kind {
+    kConstantSpeed,
+    kAngleHold,
+    kSpeedRamp,
+    kAngleRamp,
+    kTrapezoid,
+    kStepList,
+    kTargets
+  };
+  struct Target {
+    double time = 0;   // s, from when it holds
+    double angle = 0;  // rad
+  };
   static CommandProfile ParseShaped(const std::string& whole, const std::string& inner,
                                     std::optional<double> rad_per_metre);
+  static CommandProfile ParseTargets(const std::string& whole, const std::string& inner,
+                                     std::optional<double> rad_per_metre);
   // The profile before shaping.
   double RawSpeed(double t, double step_angle) const;
   double RawAngle(double t, double step_angle) const;
@@ -87,8 +109,9 @@ class CommandProfile {
   double a_ = 0, b_ = 0;             // speeds (rad/s) or angles (rad)
   double t1_ = 0, t2_ = 0, t3_ = 0;  // s
   std::string text_;
-  std::shared_ptr<const StepTimes> steps_;     // kStepList
-  std::shared_ptr<const InputShaper> shaper_;  // shaped(…)
+  std::shared_ptr<const StepTimes> steps_;              // kStepList
+  std::shared_ptr<const InputShaper> shaper_;           // shaped(…)
+  std::shared_ptr<const std::vector<Target>> targets_;  // targets(…), times rising
 };
 
 }  // namespace mjstepper

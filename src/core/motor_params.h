@@ -28,6 +28,10 @@ struct MotorParams {
   double static_friction = 0.0;    ///< Fs, N·m (joint frictionloss)
   double load_torque = 0.0;        ///< τl of the paper's setup, N·m (Kim: 0.1; a MuJoCo force)
   double rated_current = 3.0;      ///< I_rated, A: the datasheet's phase current
+  /// The default id* of the current drives (`hold_current`), A: Tsui's 1.9 for the paper presets,
+  /// √2·I_rated for catalogue motors (the peak of the rated RMS current: their datasheet's holding
+  /// torque and temperature rise).
+  double hold_current = 1.9;
 };
 
 /// Throws std::invalid_argument naming the field, its value and the rule when a value is out of

@@ -159,6 +159,9 @@ MotorParams FromDatasheet(const Datasheet& d) {
   m.viscous_damping = 1e-4;  // N·m·s/rad: not on datasheets (FromDatasheet)
   m.static_friction = 0.0;
   m.rated_current = d.rated_current;
+  // The current drives default to: the peak of the rated RMS current, at which the datasheet
+  // states the holding torque (√2·Km·I) and its temperature rise: no default overdrives it.
+  m.hold_current = std::sqrt(2.0) * d.rated_current;
   return m;
 }
 

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace mjstepper {
@@ -101,6 +102,28 @@ std::array<double, 2> ThermalNetwork::TimeConstants() const {
 
 std::array<double, 2> ThermalNetwork::SteadyRise(double power) const {
   return {power * (p_.resistance_winding + p_.resistance_housing), power * p_.resistance_housing};
+}
+
+std::array<double, 2> RiseUnderCurrent(const ThermalNetwork& network, const HeatParams& heat,
+                                       double r20, double current_squared,
+                                       std::array<double, 2> rise, double duration, int pieces) {
+  const double dt = duration / pieces;  // s
+  for (int k = 0; k < pieces; ++k) {
+    const double temperature = heat.ambient_temperature + rise[0];  // °C, T_w
+    const double power =
+        r20 * TemperatureFactor(heat.resistance_coefficient, temperature) * current_squared;  // W
+    rise = network.Step(rise, power, dt);
+  }
+  return rise;
+}
+
+double SteadyWindingTemperature(const HeatParams& heat, double r20, double current_squared) {
+  const double k = (heat.network.resistance_winding + heat.network.resistance_housing) * r20 *
+                   current_squared;  // K per unit of R's factor
+  const double alpha = heat.resistance_coefficient;
+  if (!(k * alpha < 1)) return std::numeric_limits<double>::infinity();
+  return heat.ambient_temperature +
+         k * (1 + alpha * (heat.ambient_temperature - kReferenceTemperature)) / (1 - k * alpha);
 }
 
 }  // namespace mjstepper

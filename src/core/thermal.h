@@ -91,6 +91,22 @@ class ThermalNetwork {
   std::array<double, 2> input_{};                      // c = M·b, b = (1/C_w, 0)
 };
 
+/// A winding's rises (θw, θh), K, after `duration` s carrying the phase currents' mean square
+/// sum `current_squared` = mean(ia² + ib²), A², from `rise`: the copper loss
+/// P = R20·TemperatureFactor(α, T_a + θw)·current_squared, held over each of `pieces` equal
+/// intervals at the interval's starting temperature (ThermalNetwork::Step is exact for a held P).
+/// A drive that regulates its currents keeps ia² + ib² whatever R: this is how a duty cycle's heat
+/// is carried over many cycles from one simulated cycle (`mjstepper size`).
+std::array<double, 2> RiseUnderCurrent(const ThermalNetwork& network, const HeatParams& heat,
+                                       double r20, double current_squared,
+                                       std::array<double, 2> rise, double duration, int pieces);
+
+/// The winding's steady temperature, °C, under `current_squared` held for ever: the fixed point of
+/// θw = (R_wh + R_ha)·R20·(1 + α·(T_a + θw − 20))·i², i.e.
+///   θw = k·(1 + α·(T_a − 20)) / (1 − k·α),  k = (R_wh + R_ha)·R20·i²;
+/// +infinity when k·α >= 1 (the loss grows faster with T than the network sheds it: runaway).
+double SteadyWindingTemperature(const HeatParams& heat, double r20, double current_squared);
+
 }  // namespace mjstepper
 
 #endif  // MJSTEPPER_CORE_THERMAL_H_

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 
 #include "core/attributes.h"
 #include "core/command_profile.h"
@@ -193,6 +194,60 @@ CommandLine::CommandLine(bool out_optional)
   resonance_->add_option("--set", sets_, kSetHelp);
   resonance_->add_flag("--quiet", quiet_, "no progress line");
 
+  size_cmd_ = app_.add_subcommand(
+      "size",
+      "size a joint's motor, drive and bus for a move: each joint's torque-speed demand beside "
+      "its simulated pull-out curve, the margin at the worst point, lost steps, and the "
+      "winding's temperature after N cycles");
+  {
+    CLI::App* sub = size_cmd_;
+    RunOptions& run = c.size.run;
+    sub->add_option("model", run.model, "MJCF model")->required()->check(CLI::ExistingFile);
+    sub->add_option("--move", moves_,
+                    "ACTUATOR=P1,P2,…UNIT: the joint's waypoints, one per pose (deg or rad on a "
+                    "hinge, mm or m on a slide); the cycle goes from the start pose through each "
+                    "pose and back; every moved joint has as many (repeatable)")
+        ->required();
+    sub->add_option("--speed", move_speeds_,
+                    "ACTUATOR=SPEED: the joint's top speed (deg/s, rad/s, rpm; mm/s, m/s), set as "
+                    "its drive's profile_speed (default: the drive's own)");
+    sub->add_option("--accel", move_accels_,
+                    "ACTUATOR=ACCELERATION: the joint's acceleration (deg/s², rad/s²; mm/s², "
+                    "m/s²), set as its drive's profile_accel (default: the drive's own)");
+    sub->add_option("--dwell", c.size.dwell, "s at each pose")
+        ->default_val(c.size.dwell)
+        ->check(InRange("dwell"));
+    sub->add_option("--cycles", c.size.cycles, "N: the winding's temperature after N cycles")
+        ->default_val(c.size.cycles)
+        ->check(InRange("cycles"));
+    sub->add_option("--pullout-points", c.size.pullout_points,
+                    "speeds of each joint's pull-out curve (0 to 1.15 × its top speed)")
+        ->default_val(c.size.pullout_points)
+        ->check(InRange("pullout-points"));
+    sub->add_option("--out", c.out,
+                    "output prefix: PREFIX.csv (the table), and per joint PREFIX_JOINT.png, "
+                    "PREFIX_JOINT_demand.csv, PREFIX_JOINT_pullout.csv")
+        ->required(!out_optional);
+    sub->add_option("--threads", c.size.threads, "pull-out workers (default: one per core)")
+        ->check(InRange("threads"));
+    sub->add_option("--set", sets_, kSetHelp);
+    sub->add_option("--mass", masses_, "BODY=KG: a body's mass, e.g. payload=0.5 (repeatable)");
+    sub->add_option("--keyframe", run.keyframe, "start (and end) each cycle at this keyframe");
+    sub->add_flag("--allow-coarse", run.allow_coarse,
+                  "run although the timestep is too coarse for a mode a stepper takes part in");
+    sub->add_option("--log", run.log, "CSV log of the cycle (every signal)");
+    sub->add_option("--render", run.render.video, "MP4 video of the cycle (ffmpeg)");
+    sub->add_option("--camera", run.render.renderer.camera, "named camera of the model");
+    sub->add_option("--size", size_, "frame size WxH")->default_val(size_);
+    sub->add_option("--fps", run.render.fps, "video frames per second")
+        ->default_val(30)
+        ->check(InRange("fps"));
+    sub->add_option("--playback", run.render.playback, "simulated seconds per video second")
+        ->default_val(1.0)
+        ->check(InRange("playback"));
+    sub->add_flag("--quiet", quiet_, "no progress line");
+  }
+
   plot_ = app_.add_subcommand("plot", "PNG plot of run logs or sweep CSVs");
   plot_->add_option("csv", c.plot_csvs, "CSV written by run, sweep or pullout")
       ->required()
@@ -345,6 +400,42 @@ void CommandLine::Check() {
                    c.resonance.test.Duration(),
                    fmt::format("give {:g} s of test", c.resonance.test.Duration()));
     c.outputs = {c.out + "_raw.csv", c.out + "_psd.csv", c.out + ".png"};
+    return;
+  }
+  if (*size_cmd_) {
+    c.kind = CommandKind::kSize;
+    SizeOptions& size = c.size;
+    size.run.overrides = overrides;
+    size.run.progress = !quiet_;
+    size.run.masses = NamedNumbers("--mass", "BODY=KG, KG a finite number", Range("mass"), masses_);
+    ParseSize(size_, &size.run.render.renderer.width, &size.run.render.renderer.height);
+    size.out = c.out;
+    // ACTUATOR=TEXT items, their grammar and units checked before any work (hinge or slide is
+    // known once the model is loaded: size.cc checks the family then).
+    for (const auto& [items, option, quantity, target] :
+         {std::tuple{&moves_, "--move", JointQuantity::kPosition, &size.moves},
+          std::tuple{&move_speeds_, "--speed", JointQuantity::kSpeed, &size.speeds},
+          std::tuple{&move_accels_, "--accel", JointQuantity::kAcceleration,
+                     &size.accelerations}}) {
+      for (const std::string& item : *items) {
+        const size_t eq = item.find('=');
+        if (eq == std::string::npos || eq == 0) {
+          throw std::invalid_argument(fmt::format("{} {}: expected ACTUATOR=VALUES", option, item));
+        }
+        const std::string name = item.substr(0, eq), text = item.substr(eq + 1);
+        ParseJointValues(fmt::format("{} {}=", option, name), text, quantity, std::nullopt,
+                         quantity != JointQuantity::kPosition);
+        if (!target->emplace(name, text).second) {
+          throw std::invalid_argument(fmt::format("{} {}: '{}' given twice", option, item, name));
+        }
+      }
+    }
+    std::vector<std::pair<std::string, std::string>> outputs;
+    if (!size.run.log.empty()) outputs.emplace_back("--log", size.run.log);
+    if (!size.run.render.video.empty()) outputs.emplace_back("--render", size.run.render.video);
+    if (!c.out.empty()) outputs.emplace_back("--out", c.out + ".csv");
+    CheckDistinctOutputs(outputs);
+    for (const auto& [option, path] : outputs) c.outputs.push_back(path);
     return;
   }
   if (*plot_) {

@@ -13,6 +13,7 @@
 #include "output_file.h"
 #include "resonance.h"
 #include "runner.h"
+#include "size.h"
 #include "sweep.h"
 
 namespace mjstepper::tools {
@@ -24,6 +25,7 @@ enum class CommandKind {
   kPullOut,
   kIdentify,
   kResonance,
+  kSize,
   kPlot,
   kInfo,
   kTables
@@ -39,6 +41,7 @@ struct Command {
   PullOutOptions pullout;
   IdentifyOptions identify;
   ResonanceOptions resonance;
+  SizeOptions size;
   std::string speeds_text;  ///< --speeds as given (sweep, map, pullout, identify)
   std::string out;          ///< output prefix (sweep, map, pullout) or PNG (plot)
   std::vector<std::string> plot_csvs, plot_labels;
@@ -75,9 +78,10 @@ class CommandLine {
 
   CLI::App app_;
   Command c_;
-  CLI::App *run_, *sweep_, *map_, *pullout_, *identify_, *resonance_, *plot_, *info_, *tables_;
+  CLI::App *run_, *sweep_, *map_, *pullout_, *identify_, *resonance_, *size_cmd_, *plot_, *info_,
+      *tables_;
   // Raw texts parsed by Check.
-  std::vector<std::string> ctrl_, sets_, masses_, loads_;
+  std::vector<std::string> ctrl_, sets_, masses_, loads_, moves_, move_speeds_, move_accels_;
   std::string size_ = "1280x720", vary_, axis_;
   double accel_per_hz_ = 75;  // mm/s² per Hz, as Klipper states it
   int accel_range_ = 16;      // g

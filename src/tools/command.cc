@@ -30,6 +30,7 @@
 #include "output_file.h"
 #include "plot.h"
 #include "runner.h"
+#include "size.h"
 #include "stepper_model.h"
 #include "sweep.h"
 #include "video_writer.h"
@@ -228,6 +229,17 @@ void PrintResult(const Command& c, const Result& result, double seconds) {
                 best.shaper.name, best.frequency, o.axis, best.shaper.name, o.axis, best.frequency);
           }
           fmt::print("  wrote {0}_raw.csv\n  wrote {0}_psd.csv\n  wrote {0}.png\n", c.out);
+        } else if constexpr (std::is_same_v<R, SizeResult>) {
+          PrintSizeTable(r, std::cout);
+          fmt::print("  {:.1f} s; wrote {}.csv\n", seconds, c.out);
+          for (const SizeJoint& j : r.joints) {
+            const auto files = SizeJointOutputs(c.out, j.name);
+            fmt::print("  wrote {}, {}, {}\n", files[2], files[0], files[1]);
+          }
+          if (!c.size.run.log.empty()) fmt::print("  wrote {}\n", c.size.run.log);
+          if (!c.size.run.render.video.empty()) {
+            fmt::print("  wrote {} ({} frames)\n", c.size.run.render.video, r.run.frames);
+          }
         } else if constexpr (std::is_same_v<R, std::vector<MapPoint>>) {
           fmt::print("{} runs in {:.1f} s\n  wrote {}.csv\n  wrote {}.png\n", r.size(), seconds,
                      c.out, c.out);
@@ -277,10 +289,14 @@ int PlotCsvs(const Command& c) {
 }  // namespace
 
 void CheckPrograms(const Command& c) {
-  if (c.kind == CommandKind::kRun && !c.run.render.video.empty()) FfmpegProgram();
+  if ((c.kind == CommandKind::kRun && !c.run.render.video.empty()) ||
+      (c.kind == CommandKind::kSize && !c.size.run.render.video.empty())) {
+    FfmpegProgram();
+  }
   const bool plots = c.kind == CommandKind::kPlot ||
                      ((c.kind == CommandKind::kSweep || c.kind == CommandKind::kMap ||
-                       c.kind == CommandKind::kPullOut || c.kind == CommandKind::kResonance) &&
+                       c.kind == CommandKind::kPullOut || c.kind == CommandKind::kResonance ||
+                       c.kind == CommandKind::kSize) &&
                       !c.out.empty()) ||
                      (c.kind == CommandKind::kRun && !c.run_plot.empty());
   if (plots) PlotProgram();
@@ -300,6 +316,8 @@ Result Execute(const Command& c, std::ostream& progress) {
       return Identify(c.identify);
     case CommandKind::kResonance:
       return RunResonanceTest(c.resonance, progress);
+    case CommandKind::kSize:
+      return Size(c.size, progress);
     default:
       throw std::logic_error("Execute: this subcommand computes no result");
   }
@@ -315,6 +333,15 @@ void WriteOutputs(const Command& c, const Result& result) {
           // The two CSVs are written by the test itself (resonance.h).
           Plot("resonance", {c.out + "_psd.csv"}, {}, c.out + ".png",
                fmt::format("{}: resonance test, {} axis", c.resonance.model, c.resonance.axis));
+        } else if constexpr (std::is_same_v<R, SizeResult>) {
+          if (c.out.empty()) return;
+          WriteSizeCsvs(c.out, r);
+          for (const SizeJoint& j : r.joints) {
+            const auto files = SizeJointOutputs(c.out, j.name);
+            Plot("size", {files[0], files[1]}, {}, files[2],
+                 fmt::format("{}: '{}' ({}, gear {:.4g}): demand against pull-out",
+                             c.size.run.model, j.name, j.motor, j.gear));
+          }
         } else if constexpr (std::is_same_v<R, std::vector<MapPoint>>) {
           if (c.out.empty()) return;
           WriteMapCsv(c.out + ".csv", c.map.parameter, r);

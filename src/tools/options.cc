@@ -3,8 +3,10 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "core/attributes.h"
 #include "core/command_profile.h"
@@ -35,6 +37,9 @@ constexpr OptionRange kRanges[] = {
     {"rate", 1e-3, 1e4, "N·m/s", "how fast pullout's load torque rises"},
     {"max-torque", 1e-6, 1e4, "N·m", "pullout's highest load torque; max-torque / rate <= 1000 s"},
     {"orders", 1, 64, "", "detent harmonic orders identify fits, each once"},
+    {"dwell", 0, 3600, "s", "size: the pause at each pose of a move"},
+    {"cycles", 1, 1e6, "cycles", "size: the duty cycles the winding's heat is carried over"},
+    {"pullout-points", 3, 200, "speeds", "size: speeds of each joint's simulated pull-out curve"},
     {"min-freq", 1, 1000, "Hz", "a resonance test's lowest frequency"},
     {"max-freq", 1, 1000, "Hz", "a resonance test's highest frequency"},
     {"accel-per-hz", 0.1, 10000, "mm/s² per Hz", "a resonance test's acceleration per Hz"},
@@ -43,6 +48,45 @@ constexpr OptionRange kRanges[] = {
     {"accel-rate", 100, 3200, "Hz", "the ADXL345's output data rate (its range)"},
     {"accel-noise", 0, 1e5, "µg/√Hz", "the ADXL345's noise density (data sheet: 290 on X, Y)"},
 };
+
+// The units a joint value may carry: SI per unit, the quantity, and whether it is linear.
+struct JointUnit {
+  const char* name;
+  double si;  // per unit
+  JointQuantity quantity;
+  bool linear;
+};
+constexpr double kDeg = kTwoPi / 360.0;  // rad
+constexpr JointUnit kJointUnits[] = {{"deg", kDeg, JointQuantity::kPosition, false},
+                                     {"rad", 1, JointQuantity::kPosition, false},
+                                     {"mm", 1e-3, JointQuantity::kPosition, true},
+                                     {"m", 1, JointQuantity::kPosition, true},
+                                     {"deg/s", kDeg, JointQuantity::kSpeed, false},
+                                     {"rad/s", 1, JointQuantity::kSpeed, false},
+                                     {"rpm", kTwoPi / 60, JointQuantity::kSpeed, false},
+                                     {"r/min", kTwoPi / 60, JointQuantity::kSpeed, false},
+                                     {"mm/s", 1e-3, JointQuantity::kSpeed, true},
+                                     {"m/s", 1, JointQuantity::kSpeed, true},
+                                     {"deg/s²", kDeg, JointQuantity::kAcceleration, false},
+                                     {"deg/s^2", kDeg, JointQuantity::kAcceleration, false},
+                                     {"rad/s²", 1, JointQuantity::kAcceleration, false},
+                                     {"rad/s^2", 1, JointQuantity::kAcceleration, false},
+                                     {"mm/s²", 1e-3, JointQuantity::kAcceleration, true},
+                                     {"mm/s^2", 1e-3, JointQuantity::kAcceleration, true},
+                                     {"m/s²", 1, JointQuantity::kAcceleration, true},
+                                     {"m/s^2", 1, JointQuantity::kAcceleration, true}};
+
+std::string Trim(const std::string& s) {
+  const size_t b = s.find_first_not_of(" \t");
+  if (b == std::string::npos) return "";
+  return s.substr(b, s.find_last_not_of(" \t") - b + 1);
+}
+
+const char* UnitsOf(JointQuantity q) {
+  return q == JointQuantity::kPosition ? "deg, rad (hinge) or mm, m (slide)"
+         : q == JointQuantity::kSpeed  ? "deg/s, rad/s, rpm (hinge) or mm/s, m/s (slide)"
+                                       : "deg/s², rad/s² (hinge) or mm/s², m/s² (slide)";
+}
 
 }  // namespace
 
@@ -148,6 +192,62 @@ std::string OptionRangeTableMarkdown() {
   std::string out = "| bound | least | most | unit | what |\n|---|---|---|---|---|\n";
   for (const OptionRange& r : kRanges) {
     out += fmt::format("| `{}` | {:g} | {:g} | {} | {} |\n", r.name, r.lo, r.hi, r.unit, r.why);
+  }
+  return out;
+}
+
+std::vector<double> ParseJointValues(const std::string& option, const std::string& text,
+                                     JointQuantity quantity, std::optional<bool> linear,
+                                     bool single) {
+  auto bad = [&](const std::string& why) {
+    return std::invalid_argument(fmt::format("{} {}: {}", option, text, why));
+  };
+  std::vector<std::string> items;
+  for (size_t start = 0;;) {
+    const size_t comma = text.find(',', start);
+    items.push_back(Trim(text.substr(start, comma - start)));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  if (single && items.size() != 1) throw bad("give one value");
+  std::vector<double> numbers(items.size());
+  std::vector<const JointUnit*> units(items.size(), nullptr);
+  for (size_t i = 0; i < items.size(); ++i) {
+    const std::string& item = items[i];
+    const char* begin = item.data() + (!item.empty() && item[0] == '+' ? 1 : 0);
+    const auto [ptr, ec] = std::from_chars(begin, item.data() + item.size(), numbers[i]);
+    if (ec != std::errc() || !std::isfinite(numbers[i])) {
+      throw bad(fmt::format("\"{}\" is not a number (with a unit: {})", item, UnitsOf(quantity)));
+    }
+    const std::string unit = Trim(std::string(ptr, item.data() + item.size()));
+    if (unit.empty()) continue;
+    for (const JointUnit& u : kJointUnits) {
+      if (unit == u.name && u.quantity == quantity) units[i] = &u;
+    }
+    if (units[i] == nullptr || (linear && units[i]->linear != *linear)) {
+      throw bad(fmt::format("\"{}\": the unit must be one of {}{}", item, UnitsOf(quantity),
+                            linear ? (*linear ? "; this is a slide" : "; this is a hinge") : ""));
+    }
+  }
+  if (units.back() == nullptr) {
+    throw bad(fmt::format("the last value needs a unit: {}", UnitsOf(quantity)));
+  }
+  const double bound = quantity == JointQuantity::kPosition ? kMaxProfileAngle
+                       : quantity == JointQuantity::kSpeed  ? kMaxProfileSpeed
+                                                            : kMaxProfileAcceleration;
+  std::vector<double> out(items.size());
+  const JointUnit* last = units.back();
+  for (size_t i = items.size(); i-- > 0;) {
+    if (units[i] == nullptr) units[i] = last;
+    if (units[i]->linear != last->linear) throw bad("mix of angular and linear units");
+    last = units[i];
+    out[i] = numbers[i] * units[i]->si;
+    if (!(std::abs(out[i]) <= bound)) {
+      throw bad(fmt::format("\"{}\" is beyond ±{:g} in SI units", items[i], bound));
+    }
+    if (quantity != JointQuantity::kPosition && !(out[i] > 0)) {
+      throw bad(fmt::format("\"{}\": a rate must be > 0", items[i]));
+    }
   }
   return out;
 }

@@ -6,6 +6,7 @@
 #define MJSTEPPER_TOOLS_OPTIONS_H_
 
 #include <map>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -49,6 +50,18 @@ void ParseSize(const std::string& text, int* width, int* height);
 std::map<std::string, double> NamedNumbers(const std::string& option, const char* form,
                                            const OptionRange& range,
                                            const std::vector<std::string>& items);
+
+enum class JointQuantity { kPosition, kSpeed, kAcceleration };
+
+/// "30,60deg" or "30deg,60deg" (a unit on the last applies to those without it): joint values in
+/// SI (rad, rad/s, rad/s² on a hinge; m, m/s, m/s² on a slide: `linear`; unknown: either, the
+/// command line's check before the model is loaded). Units: deg, rad, mm, m; deg/s, rad/s, rpm,
+/// mm/s, m/s; deg/s², rad/s², mm/s², m/s² (also ^2). Every value finite and within ±1e7 (positions)
+/// or ±1e4 per s (rates); `single`: exactly one value. Throws std::invalid_argument naming
+/// `option`.
+std::vector<double> ParseJointValues(const std::string& option, const std::string& text,
+                                     JointQuantity quantity, std::optional<bool> linear,
+                                     bool single);
 
 /// The Markdown table of kOptionRanges for the README (`mjstepper tables`).
 std::string OptionRangeTableMarkdown();

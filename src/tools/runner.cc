@@ -200,6 +200,16 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
         trace.velocity_error.push_back(error);
         trace.current_a.push_back(signals[kCurrentA]);
         trace.load_angle.push_back(signals[kLoadAngle]);
+        static const int kTorque = SignalIndex("torque_total");
+        static const int kCopper = SignalIndex("energy_copper");
+        static const int kResistance = SignalIndex("resistance");
+        static const int kWinding = SignalIndex("winding_temperature");
+        static const int kHousing = SignalIndex("housing_temperature");
+        trace.torque.push_back(signals[kTorque]);
+        trace.energy_copper.push_back(signals[kCopper]);
+        trace.resistance.push_back(signals[kResistance]);
+        trace.winding_temperature.push_back(signals[kWinding]);
+        trace.housing_temperature.push_back(signals[kHousing]);
       }
       if (csv) {
         row.insert(row.end(), {d->actuator_length[s.outadr], omega, error});

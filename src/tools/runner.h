@@ -34,11 +34,16 @@ struct RunOptions {
 
 /// Per-step records of one stepper, at each step's start.
 struct StepperTrace {
-  std::vector<double> time;            ///< s
-  std::vector<double> omega_cmd;       ///< rad/s
-  std::vector<double> velocity_error;  ///< rad/s, ω − ωcmd
-  std::vector<double> current_a;       ///< A
-  std::vector<double> load_angle;      ///< electrical rad
+  std::vector<double> time;                 ///< s
+  std::vector<double> omega_cmd;            ///< rad/s
+  std::vector<double> velocity_error;       ///< rad/s, ω − ωcmd
+  std::vector<double> current_a;            ///< A
+  std::vector<double> load_angle;           ///< electrical rad
+  std::vector<double> torque;               ///< N·m, τm + τdet (torque_total)
+  std::vector<double> energy_copper;        ///< J, since the start
+  std::vector<double> resistance;           ///< Ω, R(T_w)
+  std::vector<double> winding_temperature;  ///< °C
+  std::vector<double> housing_temperature;  ///< °C
 };
 
 struct StepperSummary {

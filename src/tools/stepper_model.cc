@@ -93,8 +93,8 @@ void LoadPluginLibrary() {
   }
 }
 
-StepperModel LoadStepperModel(const std::string& path,
-                              const std::vector<ConfigOverride>& overrides) {
+StepperModel LoadStepperModel(const std::string& path, const std::vector<ConfigOverride>& overrides,
+                              const std::string& text) {
   LoadPluginLibrary();
   // With overrides, the edited text is read from a VFS under the file's own name, so that relative
   // asset paths still resolve against the model's folder.
@@ -104,8 +104,11 @@ StepperModel LoadStepperModel(const std::string& path,
     mjVFS vfs;
   } files;
   const mjVFS* vfs = nullptr;
-  if (!overrides.empty()) {
-    const std::string edited = ApplyOverrides(path, overrides);
+  if (!text.empty() && !overrides.empty()) {
+    throw std::logic_error("LoadStepperModel: a model's text takes no overrides");
+  }
+  if (!overrides.empty() || !text.empty()) {
+    const std::string edited = text.empty() ? ApplyOverrides(path, overrides) : text;
     mj_addBufferVFS(&files.vfs, path.c_str(), edited.data(), static_cast<int>(edited.size()));
     vfs = &files.vfs;
   }

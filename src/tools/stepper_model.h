@@ -60,9 +60,12 @@ struct StepperModel {
 void LoadPluginLibrary();
 
 /// Throws std::runtime_error with MuJoCo's own message on any load or compile error. `overrides`
-/// change steppers' <config> values for this load only (config_overrides.h).
+/// change steppers' <config> values for this load only (config_overrides.h). `text`, when given,
+/// is the MJCF itself, read in place of the file `path` (which then only names it); it takes no
+/// overrides.
 StepperModel LoadStepperModel(const std::string& path,
-                              const std::vector<ConfigOverride>& overrides = {});
+                              const std::vector<ConfigOverride>& overrides = {},
+                              const std::string& text = "");
 
 /// The sensordata address of the model's accelerometer sensor `name` (a virtual ADXL345's input,
 /// resonance.h); throws std::invalid_argument naming it when there is none.

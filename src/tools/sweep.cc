@@ -139,9 +139,9 @@ const StepperActuator& FindTarget(const StepperModel& sm, const std::string& act
   if (target == nullptr) {
     std::string names;
     for (const StepperActuator& s : sm.steppers) names += (names.empty() ? "" : ", ") + s.name;
-    throw std::invalid_argument(
-        fmt::format("--actuator '{}': not a stepper of {} (steppers: {}){}", actuator, model,
-                    names, actuator.empty() ? "; name one with --actuator" : ""));
+    throw std::invalid_argument(fmt::format("--actuator '{}': not a stepper of {} (steppers: {}){}",
+                                            actuator, model, names,
+                                            actuator.empty() ? "; name one with --actuator" : ""));
   }
   return *target;
 }
@@ -191,13 +191,17 @@ void ParallelFor(size_t n, int threads, bool show_progress, const char* what,
 template <class Point, class Options, class Run, class Check>
 std::vector<Point> OverSpeeds(const Options& o, const char* what, std::ostream& progress, Run run,
                               Check check) {
-  const StepperModel sm = LoadStepperModel(o.model, o.overrides);
+  StepperModel sm;
+  if constexpr (requires { o.model_text; }) {
+    sm = LoadStepperModel(o.model, o.overrides, o.model_text);
+  } else {
+    sm = LoadStepperModel(o.model, o.overrides);
+  }
   check(sm.model.get());
   const StepperActuator& target = FindTarget(sm, o.actuator, o.model);
   std::vector<Point> points(o.speeds.size());
-  ParallelFor(o.speeds.size(), o.threads, o.progress, what, progress, [&](size_t i) {
-    points[i] = run(sm.model.get(), target, o.speeds[i], o);
-  });
+  ParallelFor(o.speeds.size(), o.threads, o.progress, what, progress,
+              [&](size_t i) { points[i] = run(sm.model.get(), target, o.speeds[i], o); });
   return points;
 }
 
@@ -221,9 +225,9 @@ void CheckSweepTiming(const SweepOptions& o, const mjModel* m) {
         fmt::format("sweep: acceleration = {} rad/s²: must be finite and > 0", o.acceleration));
   }
   if (!(o.measure >= kMinMeasuredSteps * m->opt.timestep)) {
-    throw std::invalid_argument(fmt::format(
-        "--measure {:g}: must hold at least {} timesteps of the model ({:g} s)", o.measure,
-        kMinMeasuredSteps, kMinMeasuredSteps * m->opt.timestep));
+    throw std::invalid_argument(
+        fmt::format("--measure {:g}: must hold at least {} timesteps of the model ({:g} s)",
+                    o.measure, kMinMeasuredSteps, kMinMeasuredSteps * m->opt.timestep));
   }
 }
 
@@ -251,8 +255,8 @@ std::vector<PullOutPoint> PullOut(const PullOutOptions& o, std::ostream& progres
 
 void WritePullOutCsv(const std::string& path, const std::vector<PullOutPoint>& points) {
   CsvWriter csv(path,
-                {"speed[r/min]", "speed[rad/s]", "pull_out_torque[N·m]",
-                 "slipped_before_load[1/0]", "held_max_torque[1/0]"},
+                {"speed[r/min]", "speed[rad/s]", "pull_out_torque[N·m]", "slipped_before_load[1/0]",
+                 "held_max_torque[1/0]"},
                 17);  // every digit, as the sweep's
   for (const PullOutPoint& p : points) {
     const double row[] = {RadPerSecToRpm(p.speed), p.speed, p.torque,
@@ -309,11 +313,11 @@ std::vector<MapPoint> Map(const MapOptions& o, std::ostream& progress) {
 
 void WriteMapCsv(const std::string& path, const std::string& parameter,
                  const std::vector<MapPoint>& points) {
-  CsvWriter csv(path,
-                {parameter, "speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
-                 "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]",
-                 "lost_steps[full steps]"},
-                17);  // every digit, as the sweep's
+  CsvWriter csv(
+      path,
+      {parameter, "speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
+       "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]", "lost_steps[full steps]"},
+      17);  // every digit, as the sweep's
   for (const MapPoint& m : points) {
     const SweepPoint& p = m.point;
     const double row[] = {m.value,

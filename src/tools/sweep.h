@@ -36,7 +36,10 @@ struct SweepPoint {
 };
 
 struct PullOutOptions {
-  std::string model;                      ///< MJCF path
+  std::string model;  ///< MJCF path
+  /// The MJCF text itself, read in place of the file `model` (which then only names it), e.g.
+  /// `mjstepper size`'s bench; no overrides with it.
+  std::string model_text;
   std::string actuator;                   ///< the stepper; empty: the model's only one
   std::vector<double> speeds;             ///< rad/s
   double acceleration = 209.44;           ///< rad/s² of the ramp to each speed (2000 r/min/s)
@@ -57,9 +60,9 @@ struct PullOutPoint {
 
 /// `mjstepper map`: the sweep repeated over values of one load parameter, on all cores.
 struct MapOptions {
-  SweepOptions sweep;              ///< model, stepper, speeds, timing, threads
-  std::string parameter;           ///< "stiffness:JOINT" (N·m/rad or N/m) or "mass:BODY" (kg)
-  std::vector<double> values;      ///< of the parameter
+  SweepOptions sweep;          ///< model, stepper, speeds, timing, threads
+  std::string parameter;       ///< "stiffness:JOINT" (N·m/rad or N/m) or "mass:BODY" (kg)
+  std::vector<double> values;  ///< of the parameter
 };
 
 struct MapPoint {

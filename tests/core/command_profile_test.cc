@@ -202,5 +202,31 @@ TEST(CommandProfile, LinearUnitsNeedALinearAxis) {
   EXPECT_THAT(error("constant(1e6m/s)", 157.08), HasSubstr("beyond"));  // 1.6e8 rad/s
 }
 
+// targets(…): each angle from its time on, absolute; the drive's motion profile moves between them.
+TEST(CommandProfile, TargetsHoldEachAngleFromItsTime) {
+  const CommandProfile p = CommandProfile::Parse("targets(0.5rad, 90deg@0.2s, -1rad@1s)");
+  EXPECT_TRUE(p.absolute_angle());
+  EXPECT_DOUBLE_EQ(p.Angle(0.0), 0.5);
+  EXPECT_DOUBLE_EQ(p.Angle(0.1999), 0.5);
+  EXPECT_DOUBLE_EQ(p.Angle(0.2), kTwoPi / 4);
+  EXPECT_DOUBLE_EQ(p.Angle(5.0), -1.0);
+  EXPECT_DOUBLE_EQ(p.Speed(0.5), 0.0);
+  // Position input: the angle at mid-step, whatever the start angle (absolute).
+  EXPECT_DOUBLE_EQ(p.ControlForStep(0.15, 0.1, InputMode::kPosition, 7.0), kTwoPi / 4);
+  auto error = [](const char* text) {
+    try {
+      CommandProfile::Parse(text);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_THAT(error("targets(0rad, 1rad@1s, 2rad@0.5s)"),
+              HasSubstr("\"2rad@0.5s\": times must rise"));
+  EXPECT_THAT(error("targets(0rad, 1rad)"), HasSubstr("\"1rad\" has no @TIME"));
+  EXPECT_THAT(error("targets(0rad, 1rpm@1s)"), HasSubstr("\"1rpm@1s\" is not an angle"));
+  EXPECT_THAT(error("targets(0rad, 1rad@-1s)"), HasSubstr("must be >= 0 s"));
+}
+
 }  // namespace
 }  // namespace mjstepper

@@ -487,5 +487,28 @@ TEST(Heat, ConfigChecks) {
   EXPECT_THROW(Drive{c}, std::invalid_argument);
 }
 
+// A duty cycle's heat carried over many cycles (mjstepper size): with R(T) the steady winding
+// temperature is the fixed point θw = (R_wh + R_ha)·R20·(1 + α·(T_a + θw − 20))·i², the closed
+// form of SteadyWindingTemperature, which RiseUnderCurrent reaches after many time constants.
+TEST(ThermalNetwork, CurrentHeldForEverReachesTheSteadyTemperatureWithRofT) {
+  HeatParams heat;
+  heat.network = {.resistance_winding = 0.648,
+                  .resistance_housing = 4.71,
+                  .capacity_winding = 18.5,
+                  .capacity_housing = 298};  // 17hs19_2004s1's
+  heat.ambient_temperature = 25;
+  const double r20 = 1.4, current_squared = 8.0;  // Ω, A²: √2·2 A in both phases
+  const ThermalNetwork network(heat.network);
+  const double steady = SteadyWindingTemperature(heat, r20, current_squared);
+  // k = 5.358·1.4·8 = 60.0 K; θw = 60.0·(1 + 0.00393·5)/(1 − 60.0·0.00393) = 80.1 K.
+  EXPECT_NEAR(steady, 25 + 60.0096 * (1 + 0.00393 * 5) / (1 - 60.0096 * 0.00393), 1e-9);
+  const auto rise = RiseUnderCurrent(network, heat, r20, current_squared, {0, 0}, 20 * 3600, 20000);
+  EXPECT_NEAR(heat.ambient_temperature + rise[0], steady, 0.01);
+  // Without R(T) it would settle 18 K lower: the law matters.
+  EXPECT_GT(steady - (25 + 60.0096), 15);
+  heat.resistance_coefficient = 1.01 / 60.0096;  // k·α > 1: the loss outgrows the network
+  EXPECT_TRUE(std::isinf(SteadyWindingTemperature(heat, r20, current_squared)));
+}
+
 }  // namespace
 }  // namespace mjstepper

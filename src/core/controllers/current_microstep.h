@@ -20,8 +20,10 @@
 namespace mjstepper {
 
 inline constexpr AttributeSpec kAttrHoldCurrent{
-    "hold_current", "real", "1.9", "A",
-    "id* of `current_microstep` and `ideal_current`, T(12); > 0."};
+    "hold_current", "real", "1.9 (paper presets); √2·rated current (catalogue presets)", "A",
+    "id* of `current_microstep` and `ideal_current`, T(12); > 0. A catalogue motor defaults to the "
+    "peak of its rated RMS current, at which its datasheet states the holding torque and the "
+    "temperature rise, so that no default overdrives it."};
 
 /// The T(12)-(13) setpoint shared by the PI drive and the ideal current source.
 struct MicrostepSetpoint {
@@ -45,7 +47,8 @@ struct MicrostepSetpoint {
     return FromDq(Dq(k, theta_cmd), Angle(k, theta_cmd));
   }
   static MicrostepSetpoint FromAttributes(const AttributeSource& a, const MotorParams& motor) {
-    return {.hold_current = a.Real(kAttrHoldCurrent, 1.9, AttributeSource::Rule::kPositive),
+    return {.hold_current =
+                a.Real(kAttrHoldCurrent, motor.hold_current, AttributeSource::Rule::kPositive),
             .damping = HarmonicCompensation::FromAttributes(a, motor),
             .microsteps = a.Integer(kAttrMicrosteps, 0, 0, 4096)};
   }

@@ -10,6 +10,8 @@
                                                        sweeps: velocity-error ripple against speed
   mjstepper_plot.py resonance PREFIX_psd.csv --out PREFIX.png
                                                        a resonance test's PSDs and shapers
+  mjstepper_plot.py size P_J_demand.csv P_J_pullout.csv --out P_J.png
+                                                       a sized joint: demand against pull-out
 
 The PNG is written to OUT.tmp.png and renamed, so it is never half-written.
 """
@@ -152,6 +154,33 @@ def plot_pullout(path, out, title=None):
     finish(fig, ax, "speed (r/min)", "pull-out torque (N·m)", title or os.path.basename(path), out)
 
 
+def plot_size(demand_path, pullout_path, out, title=None):
+    """A joint of `mjstepper size`: its torque-speed demand along the move (|τ| against |ω|,
+    rotor side: the torque the move needs) and what the motor did in the simulated cycle, beside
+    its motor's simulated pull-out curve, the worst point marked with its margin."""
+    _, d = read_csv(demand_path)
+    _, p = read_csv(pullout_path)
+    speed = [abs(v) * RPM for v in d["speed[rad/s]"]]
+    torque = [abs(v) for v in d["torque[N·m]"]]
+    fig, ax = plt.subplots(figsize=(9, 5))
+    ax.plot(p["speed[r/min]"], p["pull_out_torque[N·m]"], "k.-", lw=1.5,
+            label="pull-out (simulated on the bench)")
+    ax.plot([abs(v) * RPM for v in d["motor_speed[rad/s]"]],
+            [abs(v) for v in d["motor_torque[N·m]"]], "-", color="tab:blue", lw=0.6, alpha=0.5,
+            label="the motor in the simulated cycle, |τm + τdet| (10 ms mean)")
+    ax.plot(speed, torque, "-", color="tab:orange", lw=1.0,
+            label="demand: the torque the move needs (inverse dynamics)")
+    margins = d["margin[1]"]
+    k = min(range(len(margins)), key=margins.__getitem__)
+    ax.plot([speed[k]], [torque[k]], "o", color="tab:red",
+            label=f"worst point: margin {100 * margins[k]:.0f} %")
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize=8, loc="upper right")
+    finish(fig, ax, "rotor speed (r/min)", "rotor torque (N·m)",
+           title or os.path.basename(demand_path), out)
+
+
 def plot_map(path, out, title=None):
     """Heat map of the velocity ripple over speed (x) and the varied parameter (y); lost steps
     marked."""
@@ -222,6 +251,10 @@ def main(argv):
     pullout.add_argument("csv")
     pullout.add_argument("--out", required=True)
     pullout.add_argument("--title")
+    size = sub.add_parser("size")
+    size.add_argument("csv", nargs=2, help="PREFIX_JOINT_demand.csv PREFIX_JOINT_pullout.csv")
+    size.add_argument("--out", required=True)
+    size.add_argument("--title")
     resonance = sub.add_parser("resonance")
     resonance.add_argument("csv")
     resonance.add_argument("--out", required=True)
@@ -237,6 +270,8 @@ def main(argv):
         plot_map(args.csv, args.out, args.title)
     elif args.kind == "pullout":
         plot_pullout(args.csv, args.out, args.title)
+    elif args.kind == "size":
+        plot_size(args.csv[0], args.csv[1], args.out, args.title)
     else:
         labels = args.labels or [os.path.basename(p) for p in args.csv]
         if len(labels) != len(args.csv):

@@ -1,0 +1,200 @@
+// `mjstepper size` (issue 20, item 4) on tests/tools/models/size_rotor.xml, a NEMA 17 turning a
+// disc, against closed forms: the demand during a trapezoid's acceleration is J·A, the pull-out
+// torque at rest is the holding torque √2·Km·I_rated, the margin is 1 − |τ|/T_po, a load the motor
+// cannot accelerate loses steps, and the winding's temperature after N cycles is that of N cycles
+// simulated.
+#include "size.h"
+
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <string>
+
+#include "runner.h"
+
+namespace mjstepper::tools {
+namespace {
+
+using ::testing::HasSubstr;
+
+const std::string kRotor = MJSTEPPER_SOURCE_DIR "/tests/tools/models/size_rotor.xml";
+constexpr double kInertia = 1e-4 + 8.2e-6;  // kg·m², the disc about its axis plus the armature
+constexpr double kAccel = 200;              // rad/s², the model's profile_accel
+constexpr double kHolding = 0.59;           // N·m, 17HS19-2004S1's datasheet: √2·Km·(2 A)
+
+// 0 → 2 rad → 0 in the drive's trapezoid: two triangles of 2·√(2 rad/200 rad/s²) = 0.2 s (peak
+// 20 rad/s), each pose held 0.1 s: a cycle of 0.6 s.
+SizeOptions Rotor() {
+  SizeOptions o;
+  o.run.model = kRotor;
+  o.run.progress = false;
+  o.moves["shaft"] = "2rad";
+  o.dwell = 0.1;
+  o.pullout_points = 4;
+  return o;
+}
+
+double Mean(const std::vector<double>& v, const std::vector<double>& t, double from, double to) {
+  double sum = 0;
+  int n = 0;
+  for (size_t k = 0; k < v.size(); ++k) {
+    if (t[k] >= from && t[k] <= to) sum += v[k], ++n;
+  }
+  return sum / n;
+}
+
+TEST(Size, DemandIsInertiaTimesAccelerationAndPullOutAtRestIsTheHoldingTorque) {
+  const SizeResult r = Size(Rotor(), std::cerr);
+  EXPECT_NEAR(r.cycle_time, 0.6, 1e-9);  // the drive's own plan: 0.2 + 0.1 + 0.2 + 0.1 s
+  ASSERT_EQ(r.joints.size(), 1u);
+  const SizeJoint& j = r.joints[0];
+  // Over the middle of the first acceleration (0.02-0.08 s) the torque accelerates the rotor and
+  // disc: J·A = 0.0216 N·m. The motor's: 3 %, the microstep ripple left in a 60 ms mean; the
+  // rotor's inertia alone (8.2e-6) would be 13× less.
+  // The demand is mj_inverse's J·A exactly; the motor's simulated torque (10 ms means) is it up
+  // to the ripple.
+  EXPECT_NEAR(Mean(j.torque, j.time, 0.02, 0.08), kInertia * kAccel, 1e-9);
+  const double torque = Mean(j.motor_torque, j.time, 0.02, 0.08);
+  std::printf("demand while accelerating %.5f N·m, J·A = %.5f N·m; pull-out at rest %.4f N·m\n",
+              torque, kInertia * kAccel, j.pullout.front().torque);
+  EXPECT_NEAR(torque / (kInertia * kAccel), 1.0, 0.03);
+  // And against the motion while braking (0.12-0.18 s).
+  EXPECT_NEAR(Mean(j.motor_torque, j.time, 0.12, 0.18) / (-kInertia * kAccel), 1.0, 0.03);
+  EXPECT_NEAR(j.peak_speed, 20, 0.02);  // rad/s: the triangle's peak, sampled at the steps
+  // The bench holds up to the peak of the sine torque, Km·I: 2 % (the load's rate, 0.44 N·m/s,
+  // and the detection one step late).
+  EXPECT_NEAR(j.pullout.front().torque / kHolding, 1.0, 0.02);
+  EXPECT_NEAR(j.bench_inertia, kInertia, 1e-12);
+  // The margin is the least of 1 − |τ|/T_po over the move, T_po linear in speed between points.
+  double least = 1;
+  for (size_t k = 0; k < j.time.size(); ++k) {
+    const double s = std::abs(j.speed[k]);
+    auto hi = std::find_if(j.pullout.begin(), j.pullout.end(),
+                           [s](const PullOutPoint& p) { return p.speed >= s; });
+    ASSERT_NE(hi, j.pullout.end());
+    double pullout = hi->torque;
+    if (hi != j.pullout.begin()) {
+      const auto lo = hi - 1;
+      pullout = lo->torque + (s - lo->speed) / (hi->speed - lo->speed) * (hi->torque - lo->torque);
+    }
+    least = std::min(least, 1 - std::abs(j.torque[k]) / pullout);  // within the curve here
+  }
+  EXPECT_DOUBLE_EQ(j.margin, least);
+  EXPECT_NEAR(j.margin, 1 - std::abs(j.worst_torque) / j.worst_pullout, 1e-12);
+  EXPECT_GT(j.margin, 0.5);
+  EXPECT_EQ(j.lost_steps, 0);
+}
+
+TEST(Size, ALoadTheMotorCannotAccelerateLosesStepsBeyondItsCurve) {
+  SizeOptions o = Rotor();
+  o.run.masses["disc"] = 20;  // 40 × the disc: J·A = 0.80 N·m, beyond the 0.59 N·m it holds
+  const SizeResult r = Size(o, std::cerr);
+  const SizeJoint& j = r.joints[0];
+  std::printf("40x disc: margin %.3f, lost %+g full steps\n", j.margin, j.lost_steps);
+  EXPECT_NE(j.lost_steps, 0);
+  // Beyond the curve at the worst point: J·A = 0.80 N·m against the 0.59 N·m it holds at rest
+  // lacks 1 − 0.59/0.80 = 26 % of the demand (measured: 23 %, where the bench's curve is a little
+  // above its value at rest); asserted: more than 20 %.
+  EXPECT_LT(j.margin, -0.2);
+  EXPECT_GE(j.margin, -1.0);
+  EXPECT_NEAR(j.margin, (j.worst_pullout - std::abs(j.worst_torque)) / std::abs(j.worst_torque),
+              1e-12);
+}
+
+TEST(Size, TheWindingAfterNCyclesIsThatOfNCyclesSimulated) {
+  SizeOptions o = Rotor();
+  o.cycles = 5;
+  const SizeResult r = Size(o, std::cerr);
+  const SizeJoint& j = r.joints[0];
+  ASSERT_TRUE(j.heat);
+  // The same five cycles, simulated: the targets of size's cycle, repeated.
+  RunOptions run;
+  run.model = kRotor;
+  run.progress = false;
+  run.keep_traces = true;
+  run.duration = 5 * r.cycle_time;
+  std::string targets = "targets(2rad";
+  for (int k = 0; k < 5; ++k) {
+    if (k > 0) targets += fmt::format(", 2rad@{:.17g}s", k * r.cycle_time + r.pose_times[0]);
+    targets += fmt::format(", 0rad@{:.17g}s", k * r.cycle_time + r.pose_times[1]);
+  }
+  run.ctrl["shaft"] = targets + ")";
+  const RunResult five = tools::Run(run, std::cerr);
+  const double simulated = five.traces[0].winding_temperature.back();  // °C
+  std::printf("winding after 1 cycle %.4f °C; after 5: carried %.4f °C, simulated %.4f °C\n",
+              j.temperature_cycle, j.temperature, simulated);
+  EXPECT_GT(simulated - j.temperature_cycle, 1.0);  // K: the four cycles warm it measurably
+  // 0.01 K of a 1.3 K rise: R(T) held over each eighth of a cycle (α·ΔT·P/C_w·T/8 ≈ 1e-4 K).
+  EXPECT_NEAR(j.temperature, simulated, 0.01);
+  // ia² + ib² of a current drive is I_peak² = 8 A² whatever the angle; 2 %: the PI loop's
+  // tracking while it moves.
+  EXPECT_NEAR(j.current_squared, 8.0, 0.16);
+}
+
+TEST(Size, ErrorsNameTheOptionAndValue) {
+  auto error = [](SizeOptions o) {
+    try {
+      Size(o, std::cerr);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  SizeOptions o = Rotor();
+  o.moves = {{"elbow", "1rad"}};
+  EXPECT_THAT(error(o), HasSubstr("--move elbow=1rad: no stepper actuator named 'elbow'"));
+  o = Rotor();
+  o.moves["shaft"] = "20mm";
+  EXPECT_THAT(error(o), HasSubstr("this is a hinge"));
+  // models/tsui_rigid.xml: a velocity-input drive without a motion profile.
+  o = Rotor();
+  o.run.model = MJSTEPPER_SOURCE_DIR "/models/tsui_rigid.xml";
+  EXPECT_THAT(error(o), HasSubstr("--move shaft: size moves a joint through its drive's motion "
+                                  "profile, which needs input = position; set "
+                                  "shaft.input=position"));
+  o.run.overrides = {{"shaft", "input", "position"}};
+  EXPECT_THAT(error(o), HasSubstr("give --speed shaft=… and --accel shaft=…"));
+  o.speeds["shaft"] = "100rpm";
+  o.accelerations["shaft"] = "-5rad/s²";
+  EXPECT_THAT(error(o), HasSubstr("--accel shaft= -5rad/s²: \"-5rad/s²\": a rate must be > 0"));
+  o = Rotor();
+  o.moves.clear();
+  EXPECT_THAT(error(o), HasSubstr("no move"));
+  o = Rotor();
+  o.cycles = 0;
+  EXPECT_THAT(error(o), HasSubstr("--cycles 0"));
+}
+
+TEST(Size, JointValuesKeepTheirUnits) {
+  EXPECT_THAT(ParseJointValues("--move j=", "30,60deg", JointQuantity::kPosition, false, false),
+              ::testing::ElementsAre(::testing::DoubleNear(M_PI / 6, 1e-15),
+                                     ::testing::DoubleNear(M_PI / 3, 1e-15)));
+  EXPECT_THAT(ParseJointValues("--move j=", "10mm,0.5m", JointQuantity::kPosition, true, false),
+              ::testing::ElementsAre(0.01, 0.5));
+  EXPECT_DOUBLE_EQ(ParseJointValues("--speed j=", "60rpm", JointQuantity::kSpeed, false, true)[0],
+                   2 * M_PI);
+  auto error = [](const std::string& text, JointQuantity q, bool single) {
+    try {
+      ParseJointValues("--x j=", text, q, std::nullopt, single);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_THAT(error("30,abc", JointQuantity::kPosition, false),
+              HasSubstr("\"abc\" is not a number"));
+  EXPECT_THAT(error("30,60", JointQuantity::kPosition, false), HasSubstr("needs a unit"));
+  EXPECT_THAT(error("30deg/s", JointQuantity::kPosition, false), HasSubstr("the unit must be"));
+  EXPECT_THAT(error("-5deg/s", JointQuantity::kSpeed, true), HasSubstr("a rate must be > 0"));
+  EXPECT_THAT(error("5,6deg/s", JointQuantity::kSpeed, true), HasSubstr("give one value"));
+  EXPECT_THAT(error("10mm,1deg", JointQuantity::kPosition, false), HasSubstr("mix of"));
+  EXPECT_THAT(error("nan deg", JointQuantity::kPosition, false), HasSubstr("not a number"));
+  EXPECT_THAT(error("1e300deg", JointQuantity::kPosition, false), HasSubstr("beyond"));
+}
+
+}  // namespace
+}  // namespace mjstepper::tools
