@@ -10,8 +10,10 @@
 # undamped and damped), which writes docs/studies/arm.md, renders/arm/velocity_error.png and
 # renders/arm/arm.mp4; then the drivers study (models/belt_axis.xml on a catalogue NEMA 17 under
 # Tsui's PI drive, SpreadCycle, StealthChop and an ideal current source), which writes
-# docs/studies/drivers.md, renders/drivers/*.png and renders/drivers/belt_axis.mp4; and prints a
-# summary. See renders/README.md.
+# docs/studies/drivers.md, renders/drivers/*.png and renders/drivers/belt_axis.mp4; then the 6-DOF
+# arm sizing study (models/arm6.xml: a pick-and-place cycle sized with two motors per joint), which
+# writes docs/studies/arm6.md, renders/arm6/*.png, *.csv and renders/arm6/pick_place_smaller.mp4;
+# and prints a summary. See renders/README.md.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bash "$here/scripts/build.sh" mjstepper_cli mjstepper
@@ -26,4 +28,5 @@ SECONDS=0
   --title "Tsui ramp 0-200 r/min: velocity error, undamped vs all three harmonics damped"
 .venv/bin/python src/tools/python/study_arm.py
 .venv/bin/python src/tools/python/study_drivers.py
+.venv/bin/python src/tools/python/study_arm6.py
 echo "study done in ${SECONDS} s (after the build)"

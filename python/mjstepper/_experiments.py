@@ -78,6 +78,17 @@ class ResonanceTest:
     samples: int
 
 
+@dataclasses.dataclass
+class Sizing:
+    """`size`'s result: one row per stepper, each joint's demand along the move and its motor's
+    simulated pull-out curve (rotor side, SI)."""
+    table: Table  # joint, motor, drive, gear, ..., margin, lost_steps, winding temperatures (°C)
+    demand: dict  # joint → Table(time, speed, torque, motor_speed, motor_torque)
+    pullout: dict  # joint → Table(speed, torque, slipped_unloaded, held_max)
+    cycle_time: float  # s
+    cycles: int
+
+
 def _number(name, value):
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} = {value!r} ({type(value).__name__}): {name} takes a number")
@@ -109,7 +120,7 @@ def speeds_text(speeds):
 # numbers only (a str there is a TypeError, as a list where a number belongs).
 _TEXT_OPTIONS = {"ctrl", "log", "keyframe", "render", "frames", "camera", "plot", "accel_log",
                  "accelerometer", "actuator", "out", "speeds", "vary", "axis", "dyno", "set",
-                 "overlay"}
+                 "overlay", "move", "speed", "accel"}
 
 
 def command_line(subcommand, positional, options):
@@ -246,3 +257,38 @@ def resonance_test(model, axis, out, *, min_freq=None, max_freq=None, accel_per_
     return ResonanceTest(psd=Table(r["psd"]), fits=Table(r["fits"]),
                          peak_frequency=r["peak_frequency"], recommended=r["recommended"],
                          samples=r["samples"])
+
+
+def _joint_values(name, values, unit):
+    """A joint's values as the command takes them: a str as it is ("30,60deg"), a number or a
+    sequence of numbers in SI on a hinge (`unit`: rad, rad/s, rad/s²)."""
+    if isinstance(values, str):
+        return values
+    if isinstance(values, numbers.Real) and not isinstance(values, (bool, np.bool_)):
+        values = [values]
+    return ",".join(repr(float(_number(name, v))) for v in values) + unit
+
+
+def size(model, move, *, speed=None, accel=None, dwell=None, cycles=None, pullout_points=None,
+         out=None, threads=None, set=(), mass=None, keyframe=None, allow_coarse=False, log=None,
+         render=None, camera=None, size=None, fps=None, playback=None, progress=False):
+    """`mjstepper size`: does each joint's motor, drive and bus carry `move`, {actuator:
+    waypoints} ("30,0deg", or numbers in rad), at `speed` and `accel` ({actuator: "90deg/s"} /
+    {actuator: "600deg/s²"}, or numbers in rad/s, rad/s²; default: each drive's own profile)?
+    Returns a Sizing: the table (margin at the worst point, lost steps, winding temperature after
+    1 and `cycles` cycles and in continuous duty), each joint's demand and pull-out curve; with
+    `out`, writes the command's CSVs and PNGs."""
+    def joints(name, values, unit):
+        return None if values is None else {
+            key: _joint_values(f"{name}[{key!r}]", v, unit) for key, v in values.items()}
+    args = command_line("size", [model], dict(
+        move=joints("move", move, "rad"), speed=joints("speed", speed, "rad/s"),
+        accel=joints("accel", accel, "rad/s²"), dwell=dwell, cycles=cycles,
+        pullout_points=pullout_points, out=out, threads=threads, set=_items(set), mass=mass,
+        keyframe=keyframe, allow_coarse=allow_coarse, log=log, render=render, camera=camera,
+        size=size, fps=fps, playback=playback, quiet=_quiet(progress)))
+    r = _engine.compute(args, False)
+    return Sizing(table=Table(r["table"]),
+                  demand={name: Table(t) for name, t in r["demand"].items()},
+                  pullout={name: Table(t) for name, t in r["pullout"].items()},
+                  cycle_time=r["cycle_time"], cycles=r["cycles"])

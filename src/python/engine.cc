@@ -14,6 +14,7 @@
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>
 
+#include <cmath>
 #include <iostream>
 #include <span>
 #include <sstream>
@@ -84,6 +85,27 @@ const Column<ShaperFit> kFitColumns[] = {
     {"vibration", "1", [](const ShaperFit& f) { return f.vibration; }, nullptr},
     {"smoothing", "m", [](const ShaperFit& f) { return f.smoothing; }, nullptr},
     {"max_accel", "m/s²", [](const ShaperFit& f) { return f.max_accel; }, nullptr}};
+
+const Column<SizeJoint> kSizeColumns[] = {
+    {"gear", "rad per joint unit", [](const SizeJoint& j) { return j.gear; }, nullptr},
+    {"bench_inertia", "kg·m²", [](const SizeJoint& j) { return j.bench_inertia; }, nullptr},
+    {"peak_speed", "rad/s", [](const SizeJoint& j) { return j.peak_speed; }, nullptr},
+    {"peak_torque", "N·m", [](const SizeJoint& j) { return j.peak_torque; }, nullptr},
+    {"worst_time", "s", [](const SizeJoint& j) { return j.worst_time; }, nullptr},
+    {"worst_speed", "rad/s", [](const SizeJoint& j) { return j.worst_speed; }, nullptr},
+    {"worst_torque", "N·m", [](const SizeJoint& j) { return j.worst_torque; }, nullptr},
+    {"worst_pullout", "N·m", [](const SizeJoint& j) { return j.worst_pullout; }, nullptr},
+    {"margin", "1", [](const SizeJoint& j) { return j.margin; }, nullptr},
+    {"lost_steps", "full steps", [](const SizeJoint& j) { return j.lost_steps + 0.0; }, nullptr},
+    {"current_squared", "A²", [](const SizeJoint& j) { return j.current_squared; }, nullptr},
+    {"winding_temperature_cycle", "°C",
+     [](const SizeJoint& j) { return j.heat ? j.temperature_cycle : NAN; }, nullptr},
+    {"winding_temperature_cycles", "°C",
+     [](const SizeJoint& j) { return j.heat ? j.temperature : NAN; }, nullptr},
+    {"winding_temperature_steady", "°C",
+     [](const SizeJoint& j) { return j.heat ? j.temperature_steady : NAN; }, nullptr},
+    {"insulation_limit", "°C", [](const SizeJoint& j) { return j.heat ? j.insulation_limit : NAN; },
+     nullptr}};
 
 // A column as Python's (name, unit, [values]).
 nb::tuple PyColumn(const char* name, const char* unit, nb::list values) {
@@ -157,6 +179,8 @@ nb::dict ToPython(const Command& c, const Result& result) {
             columns.append(PyColumn("velocity_error", "rad/s", Floats(t.velocity_error)));
             columns.append(PyColumn("current_a", "A", Floats(t.current_a)));
             columns.append(PyColumn("load_angle", "electrical rad", Floats(t.load_angle)));
+            columns.append(PyColumn("torque", "N·m", Floats(t.torque)));
+            columns.append(PyColumn("winding_temperature", "°C", Floats(t.winding_temperature)));
             traces[nb::str(r.steppers[i].name.c_str())] = columns;
           }
           out["traces"] = traces;
@@ -164,6 +188,35 @@ nb::dict ToPython(const Command& c, const Result& result) {
           out["sim_time"] = r.sim_time;
           out["wall_time"] = r.wall_time;
           out["frames"] = r.frames;
+        } else if constexpr (std::is_same_v<R, SizeResult>) {
+          nb::list names, motors, drives;
+          for (const SizeJoint& j : r.joints) {
+            names.append(nb::str(j.name.c_str()));
+            motors.append(nb::str(j.motor.c_str()));
+            drives.append(nb::str(j.drive.c_str()));
+          }
+          nb::list table;
+          table.append(PyColumn("joint", "", names));
+          table.append(PyColumn("motor", "", motors));
+          table.append(PyColumn("drive", "", drives));
+          AppendColumns(table, kSizeColumns, std::span<const SizeJoint>(r.joints));
+          out["table"] = table;
+          nb::dict demands, curves;
+          for (const SizeJoint& j : r.joints) {
+            nb::list columns;
+            columns.append(PyColumn("time", "s", Floats(j.time)));
+            columns.append(PyColumn("speed", "rad/s", Floats(j.speed)));
+            columns.append(PyColumn("torque", "N·m", Floats(j.torque)));
+            columns.append(PyColumn("motor_speed", "rad/s", Floats(j.motor_speed)));
+            columns.append(PyColumn("motor_torque", "N·m", Floats(j.motor_torque)));
+            demands[nb::str(j.name.c_str())] = columns;
+            curves[nb::str(j.name.c_str())] =
+                Columns(kPullOutColumns, std::span<const PullOutPoint>(j.pullout));
+          }
+          out["demand"] = demands;
+          out["pullout"] = curves;
+          out["cycle_time"] = r.cycle_time;
+          out["cycles"] = r.cycles;
         } else if constexpr (std::is_same_v<R, Identified>) {
           out["harmonics"] =
               Columns(kHarmonicColumns, std::span<const DetentHarmonic>(r.harmonics));

@@ -200,7 +200,8 @@ std::vector<double> ParseJointValues(const std::string& option, const std::strin
                                      JointQuantity quantity, std::optional<bool> linear,
                                      bool single) {
   auto bad = [&](const std::string& why) {
-    return std::invalid_argument(fmt::format("{} {}: {}", option, text, why));
+    return std::invalid_argument(
+        fmt::format("{}{}{}: {}", option, option.ends_with('=') ? "" : " ", text, why));
   };
   std::vector<std::string> items;
   for (size_t start = 0;;) {

@@ -161,8 +161,8 @@ class TheCommand(unittest.TestCase):
         self.assertEqual(os.path.dirname(MJSTEPPER), os.path.dirname(sys.executable))
         result = self.command("--help")
         self.assertEqual(result.returncode, 0, result.stderr)
-        for sub in ("run", "sweep", "map", "pullout", "identify", "resonance-test", "plot",
-                    "info", "tables"):
+        for sub in ("run", "sweep", "map", "pullout", "identify", "resonance-test", "size",
+                    "plot", "info", "tables"):
             self.assertIn(sub, result.stdout)
         info = self.command("info", RIGID)
         self.assertEqual(info.returncode, 0, info.stderr)
@@ -264,6 +264,27 @@ class OneEngine(unittest.TestCase):
                          csv_column(base + "_cli.csv", "pull_out_torque[N·m]"))
         self.assertEqual(table.held_max.dtype, np.bool_)
         self.assertGreater(table.torque[0], 0.3)  # N·m: Km·I = 0.57 at low speed
+
+    def test_size(self):
+        base = os.path.join(os.getcwd(), "size")
+        rotor = os.path.join(SOURCE, "tests", "tools", "models", "size_rotor.xml")
+        self.cli("size", rotor, "--move", "shaft=2rad", "--dwell", "0.1", "--cycles", "5",
+                 "--pullout-points", "3", "--quiet", "--out", base + "_cli")
+        sizing = mjstepper.size(rotor, {"shaft": [2.0]}, dwell=0.1, cycles=5, pullout_points=3,
+                                out=base + "_py")
+        for suffix in (".csv", "_shaft_demand.csv", "_shaft_pullout.csv"):
+            self.assertEqual(read(base + "_py" + suffix), read(base + "_cli" + suffix), suffix)
+        self.assertTrue(os.path.getsize(base + "_py_shaft.png") > 1000)
+        self.assertEqual(sizing.table.joint.tolist(), ["shaft"])
+        self.assertEqual(sizing.table.margin.tolist(), csv_column(base + "_cli.csv", "margin[1]"))
+        self.assertEqual(sizing.table.units["winding_temperature_cycles"], "°C")
+        self.assertEqual(sizing.demand["shaft"].torque.tolist(),
+                         csv_column(base + "_cli_shaft_demand.csv", "torque[N·m]"))
+        self.assertEqual(sizing.pullout["shaft"].torque.tolist(),
+                         csv_column(base + "_cli_shaft_pullout.csv", "pull_out_torque[N·m]"))
+        self.assertAlmostEqual(sizing.cycle_time, 0.6, places=9)
+        with self.assertRaisesRegex(ValueError, "--move shaft=20mm"):
+            mjstepper.size(rotor, {"shaft": "20mm"})
 
     def test_run(self):
         base = os.path.join(os.getcwd(), "run")

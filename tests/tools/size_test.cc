@@ -160,7 +160,7 @@ TEST(Size, ErrorsNameTheOptionAndValue) {
   EXPECT_THAT(error(o), HasSubstr("give --speed shaft=… and --accel shaft=…"));
   o.speeds["shaft"] = "100rpm";
   o.accelerations["shaft"] = "-5rad/s²";
-  EXPECT_THAT(error(o), HasSubstr("--accel shaft= -5rad/s²: \"-5rad/s²\": a rate must be > 0"));
+  EXPECT_THAT(error(o), HasSubstr("--accel shaft=-5rad/s²: \"-5rad/s²\": a rate must be > 0"));
   o = Rotor();
   o.moves.clear();
   EXPECT_THAT(error(o), HasSubstr("no move"));
