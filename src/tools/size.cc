@@ -4,6 +4,7 @@
 #include <fmt/ostream.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -25,14 +26,12 @@
 namespace mjstepper::tools {
 namespace {
 
-// A file name's part from an actuator's name: letters, digits, '_', '-' and '.' (not leading),
-// so that no name can lead a path elsewhere.
+// A file name's part from an actuator's name: letters, digits, '_' and '-', every other character
+// '_', so that no name can lead a path elsewhere.
 std::string FilePart(const std::string& name) {
   std::string out;
   for (char ch : name) {
-    const bool ok = std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-' ||
-                    (ch == '.' && !out.empty());
-    out += ok ? ch : '_';
+    out += std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' ? ch : '_';
   }
   return out.empty() ? "_" : out;
 }

@@ -169,6 +169,15 @@ TEST(Size, ErrorsNameTheOptionAndValue) {
   EXPECT_THAT(error(o), HasSubstr("--cycles 0"));
 }
 
+// A joint's files stay beside the prefix whatever its actuator is called.
+TEST(Size, JointFilesStayBesideThePrefix) {
+  EXPECT_THAT(SizeJointOutputs("out/arm", "../../etc/passwd"),
+              ::testing::ElementsAre("out/arm_______etc_passwd_demand.csv",
+                                     "out/arm_______etc_passwd_pullout.csv",
+                                     "out/arm_______etc_passwd.png"));
+  EXPECT_EQ(SizeJointOutputs("p", "j2")[2], "p_j2.png");
+}
+
 TEST(Size, JointValuesKeepTheirUnits) {
   EXPECT_THAT(ParseJointValues("--move j=", "30,60deg", JointQuantity::kPosition, false, false),
               ::testing::ElementsAre(::testing::DoubleNear(M_PI / 6, 1e-15),
