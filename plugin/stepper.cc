@@ -415,20 +415,21 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
     return;
   }
   if (!drive_) return;
-  bool consistent = false;
+  // The consistent coupling solves every started coupled stepper of the model at once (C-3), in
+  // one instance, the first of coupled_: it writes all their forces, once per step.
+  const bool leader = !coupled_.empty() && coupled_.front().instance == instance;
   for (size_t slot = 0; slot < actuators_.size(); ++slot) {
     const Actuator& a = actuators_[slot];
     // Torque from the currents at the step's start (as MuJoCo's dcmotor without actearly); the
     // core state suffices once the drive has started.
     const double* values = Slot(m, d, instance, slot);
-    const double theta = d->actuator_length[a.outadr];
     const bool started = Drive::Started(values);
-    d->actuator_force[a.outadr] = started
-                                      ? drive_->StoredTorque(values, theta)
-                                      : drive_->Torque(CurrentState(m, d, instance, slot), theta);
-    consistent |= coupling_ == Coupling::kConsistent && started;
+    if (started && coupling_ == Coupling::kConsistent) continue;  // the leader's solve writes it
+    d->actuator_force[a.outadr] =
+        started ? drive_->StoredTorque(values, d->actuator_length[a.outadr])
+                : drive_->Torque(CurrentState(m, d, instance, slot), d->actuator_length[a.outadr]);
   }
-  if (consistent) ConsistentForces(m, d, instance);
+  if (leader) ConsistentForces(m, d);
 }
 
 double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuator, int output) {
@@ -454,9 +455,9 @@ double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuat
   return force;
 }
 
-void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) const {
+void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
   // C-3 (core/coupling.h) over every started stepper with the consistent coupling in the model
-  // (an arm's steppers see each other through M); this instance writes its own rows. R: their
+  // (an arm's steppers see each other through M); it writes every one's force. R: their
   // moment rows; G = R·M⁻¹·Rᵀ from M factorised before actuation; a_ext = R·M⁻¹·F with F what
   // MuJoCo will add up as qfrc_smooth + qfrc_constraint less these steppers: this step's passive
   // (without the damping MuJoCo integrates implicitly: the dofs' and the actuators'), bias
@@ -465,8 +466,7 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) const 
   // (checked at load); moment rows, actuator_force and actuator_velocity are per output.
   const int na = static_cast<int>(coupled_.size());  // at most this many rows
   mj_markStack(d);
-  int* outputs = mj_stackAllocInt(d, 2 * na);  // the started ones' outputs, then instances
-  int* owners = outputs + na;
+  int* outputs = mj_stackAllocInt(d, na);        // the started ones' outputs
   mjtNum* torque = mj_stackAllocNum(d, 2 * na);  // τ0 (N·m), then k (N·m/rad)
   mjtNum* stiffness = torque + na;
   int n = 0;
@@ -476,7 +476,6 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) const 
     if (!s.drive_ || !Drive::Started(values)) continue;
     const double theta = d->actuator_length[c.output];
     outputs[n] = c.output;
-    owners[n] = c.instance;
     torque[n] = s.drive_->StoredTorque(values, theta);
     stiffness[n] = s.drive_->StoredStiffness(values, theta);
     ++n;
@@ -541,8 +540,9 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) const 
   }
   for (int i = 0; i < n; ++i) external[i] = mju_dot(rows + i * nv, force, nv);  // (M⁻¹·rᵢᵀ)·F
   const double h = m->opt.timestep;
-  if (n == 1) {  // C-2
-    if (owners[0] == instance && inverse_inertia[0] > 0) {
+  for (int i = 0; i < n; ++i) d->actuator_force[outputs[i]] = torque[i];  // τ0 unless solved
+  if (n == 1) {                                                           // C-2
+    if (inverse_inertia[0] > 0) {
       d->actuator_force[outputs[0]] =
           ConsistentTorque(torque[0], stiffness[0], 1.0 / inverse_inertia[0], external[0], h);
     }
@@ -551,9 +551,7 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, int instance) const 
       const std::vector<double> handed =
           ConsistentTorques(std::span(inverse_inertia, n * n), std::span(stiffness, n),
                             std::span(torque, n), std::span(external, n), h);
-      for (int i = 0; i < n; ++i) {
-        if (owners[i] == instance) d->actuator_force[outputs[i]] = handed[i];
-      }
+      for (int i = 0; i < n; ++i) d->actuator_force[outputs[i]] = handed[i];
     } catch (...) {
     }
   }

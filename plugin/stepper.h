@@ -90,9 +90,11 @@ class Stepper {
     int gauge_joint = -1;  // the hinge the gauge is drawn on, or -1 (none)
     double gear = 1;
   };
-  /// C-2 of core/coupling.h for actuator `a`: the torque handed to MuJoCo this step, from the
-  /// motor's τ0 and stiffness k, with J and a_ext read from d (mass matrix, forces).
-  void ConsistentForces(const mjModel* m, mjData* d, int instance) const;
+  /// C-2 / C-3 of core/coupling.h over every started stepper of coupled_: the torques handed to
+  /// MuJoCo this step, from the motors' τ0 and stiffness k, with G and a_ext read from d (mass
+  /// matrix, forces); writes each one's actuator_force. Called by the first instance of coupled_
+  /// only, so that the model's coupled system is solved once per step.
+  void ConsistentForces(const mjModel* m, mjData* d) const;
   /// Output `output` of actuator `actuator`: its force this step as far as known during a
   /// plugin's compute (a stepper's motor torque at the step's start, any other actuator's
   /// actuator_force), within the actuator's forcerange.
