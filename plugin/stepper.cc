@@ -359,8 +359,12 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
   for (int j = 0; j < m->nactuator; ++j) {
     const int owner = m->actuator_plugin[j];
     if (owner < 0 || !IsStepperInstance(m, owner)) continue;
-    const char* coupling = mj_getPluginConfig(m, owner, "coupling");
-    if (coupling != nullptr && std::string_view(coupling) == "explicit") continue;
+    // Its coupling as its own instance parses it (the same parser: trimmed, defaulted); a config
+    // that does not parse is refused by its own instance's load.
+    const auto parsed = ParseStepperConfig(
+        [m, owner](const char* name) { return mj_getPluginConfig(m, owner, name); });
+    const auto* config = std::get_if<StepperConfig>(&parsed);
+    if (config == nullptr || config->coupling != Coupling::kConsistent) continue;
     const std::vector<int> owned = BoundActuators(m, owner);  // a drive's slots, in id order
     const auto slot = std::find(owned.begin(), owned.end(), j) - owned.begin();
     stepper->coupled_.push_back({.actuator = j,
@@ -473,7 +477,7 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
   for (const CoupledActuator& c : coupled_) {
     const Stepper& s = FromData(d, c.instance);
     const double* values = s.Slot(m, d, c.instance, c.slot);
-    if (!s.drive_ || !Drive::Started(values)) continue;
+    if (!s.drive_ || s.coupling_ != Coupling::kConsistent || !Drive::Started(values)) continue;
     const double theta = d->actuator_length[c.output];
     outputs[n] = c.output;
     torque[n] = s.drive_->StoredTorque(values, theta);

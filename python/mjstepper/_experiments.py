@@ -274,7 +274,8 @@ def size(model, move, *, speed=None, accel=None, dwell=None, cycles=None, pullou
          render=None, camera=None, size=None, fps=None, playback=None, progress=False):
     """`mjstepper size`: does each joint's motor, drive and bus carry `move`, {actuator:
     waypoints} ("30,0deg", or numbers in rad), at `speed` and `accel` ({actuator: "90deg/s"} /
-    {actuator: "600deg/s²"}, or numbers in rad/s, rad/s²; default: each drive's own profile)?
+    {actuator: "600deg/s²"}, or numbers in rad/s, rad/s² — numbers are a hinge's: give a slide's
+    as a str, "10,20mm"; default: each drive's own profile)?
     Returns a Sizing: the table (margin at the worst point, lost steps, winding temperature after
     1 and `cycles` cycles and in continuous duty), each joint's demand and pull-out curve; with
     `out`, writes the command's CSVs and PNGs."""

@@ -53,6 +53,14 @@ std::string ConfigText(const mjModel* m, const StepperActuator& s, const char* k
   return value != nullptr ? value : "";
 }
 
+// A CSV text field, quoted (RFC 4180) when it holds a comma, a quote or a line break.
+std::string CsvText(const std::string& text) {
+  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
+  std::string out = "\"";
+  for (char ch : text) out += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+  return out + "\"";
+}
+
 std::string XmlEscape(const std::string& text) {
   std::string out;
   for (char ch : text) {
@@ -84,6 +92,13 @@ std::string BenchModel(const mjModel* m, const StepperActuator& s, double inerti
   const double omega = std::sqrt((r.stiffness + r.detent_stiffness) / inertia);  // rad/s
   double h = s.config.isr_period;                                                // s
   if (omega > 0 && 0.1 / omega < h) h = 0.1 / omega;
+  // A force-limited actuator applies at most its forcerange: so does the bench's.
+  const std::string limits =
+      m->actuator_forcelimited[s.actuator]
+          ? fmt::format(" forcelimited=\"true\" forcerange=\"{:.17g} {:.17g}\"",
+                        m->actuator_forcerange[2 * s.actuator],
+                        m->actuator_forcerange[2 * s.actuator + 1])
+          : "";
   std::string config;
   for (const char* key : plugin::AttributeNames()) {
     const std::string name = key;
@@ -102,13 +117,13 @@ std::string BenchModel(const mjModel* m, const StepperActuator& s, double inerti
       "</worldbody>\n"
       "  <actuator>\n"
       "    <plugin name=\"{}\" joint=\"shaft\" plugin=\"mjstepper.stepper\" armature=\"{:.17g}\" "
-      "damping=\"{:.17g}\">\n{}"
+      "damping=\"{:.17g}\"{}>\n{}"
       "      <config key=\"profile\" value=\"none\"/>\n"
       "      <config key=\"gauge\" value=\"off\"/>\n"
       "    </plugin>\n"
       "  </actuator>\n"
       "</mujoco>\n",
-      h, XmlEscape(s.name), inertia, m->actuator_damping[s.actuator], config);
+      h, XmlEscape(s.name), inertia, m->actuator_damping[s.actuator], limits, config);
 }
 
 // Centred moving average of v over n samples (fewer at the ends).
@@ -158,10 +173,12 @@ std::vector<std::vector<double>> InverseDynamicsDemand(const mjModel* m,
   struct Axis {
     int dof = -1, qpos = -1;
     double gear = 1;
+    double damping = 0;  // N·m·s/rad, the actuator's own (rotor side): in the bench's curve
     MotionProfile profile;
     MotionProfile::State plan;
     std::optional<CommandProfile> ctrl;  // the run's, or hold the start angle
     double start = 0;                    // rad, rotor
+    double omega = 0;                    // rad/s, the plan's speed at this sample
   };
   std::vector<Axis> axes(steppers.size());
   std::vector<std::vector<double>> out(steppers.size());
@@ -177,6 +194,7 @@ std::vector<std::vector<double>> InverseDynamicsDemand(const mjModel* m,
     a.dof = m->jnt_dofadr[joint];
     a.qpos = m->jnt_qposadr[joint];
     a.gear = Gear(m, s);
+    a.damping = m->actuator_damping[s.actuator];
     a.profile = s.config.profile;
     a.start = start->actuator_length[s.outadr];
     a.plan = MotionProfile::Rest(start->time, a.start);
@@ -201,11 +219,15 @@ std::vector<std::vector<double>> InverseDynamicsDemand(const mjModel* m,
       // actuator_length = gear·q on a joint transmission (the start pose's own q is gear⁻¹ of it)
       d->qpos[a.qpos] = start->qpos[a.qpos] + (c.theta - a.start) / a.gear;
       d->qvel[a.dof] = c.omega / a.gear;
+      a.omega = c.omega;
       d->qacc[a.dof] = c.accel / a.gear;
     }
     mj_inverse(m, d);
     for (size_t i = 0; i < axes.size(); ++i) {
-      if (axes[i].dof >= 0) out[i].push_back(d->qfrc_inverse[axes[i].dof] / axes[i].gear);
+      // The actuator's damping (in qfrc_passive, so in qfrc_inverse) is also on the bench, whose
+      // curve is the torque left beyond it: it is counted there, not here.
+      const Axis& a = axes[i];
+      if (a.dof >= 0) out[i].push_back(d->qfrc_inverse[a.dof] / a.gear - a.damping * a.omega);
     }
   }
   return out;
@@ -238,11 +260,26 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
   mj_forward(m0, data0.get());
 
   const size_t n = user.steppers.size();
-  if (!o.out.empty()) {  // every file the sizing will write, before the work
-    CheckOutputPath(o.out + ".csv");
+  if (!o.out.empty()) {  // every file the sizing will write, before the work, each once
+    std::vector<std::pair<std::string, std::string>> files = {{"--out", o.out + ".csv"}};
+    if (!o.run.log.empty()) files.emplace_back("--log", o.run.log);
+    if (!o.run.render.video.empty()) files.emplace_back("--render", o.run.render.video);
     for (const StepperActuator& s : user.steppers) {
-      for (const std::string& file : SizeJointOutputs(o.out, s.name)) CheckOutputPath(file);
+      for (const std::string& file : SizeJointOutputs(o.out, s.name)) {
+        for (const auto& [option, other] : files) {
+          if (other == file) {
+            throw std::invalid_argument(fmt::format(
+                "--out {}: '{}' writes {}, which {} writes too{}", o.out, s.name, file, option,
+                option == "--out" ? " (actuator names that differ only in characters a file "
+                                    "name cannot hold)"
+                                  : ""));
+          }
+        }
+        files.emplace_back("--out", file);
+      }
     }
+    CheckDistinctOutputs(files);
+    for (const auto& [option, file] : files) CheckOutputPath(file);
   }
   std::vector<std::vector<double>> waypoints(n);  // per stepper: joint values, empty: holds
   size_t poses = 0;
@@ -313,9 +350,17 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
     const StepperActuator& s = sm.steppers[i];
     const double start = data0->actuator_length[s.outadr];
     targets[i].push_back(start);
-    for (double q : waypoints[i]) targets[i].push_back(Gear(m, s) * q);
+    for (double q : waypoints[i]) {
+      targets[i].push_back(Gear(m, s) * q);
+      if (!(std::abs(targets[i].back()) <= kMaxProfileAngle)) {
+        throw std::invalid_argument(fmt::format(
+            "--move {}={}: {:g} (joint) is {:g} rad at the rotor (gear {:g}), beyond ±{:g} rad",
+            s.name, o.moves.at(s.name), q, targets[i].back(), Gear(m, s), kMaxProfileAngle));
+      }
+    }
     targets[i].push_back(start);
-    start_time = std::max(start_time, s.config.profile.start_time);
+    // profile_start is a time of the simulation's clock, which a keyframe may start anywhere.
+    start_time = std::max(start_time, s.config.profile.start_time - data0->time);
   }
   SizeResult result;
   result.cycles = o.cycles;
@@ -331,9 +376,15 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
       longest = std::max(longest, plan.t_end - plan.t0);
     }
     result.pose_times.push_back(t);
-    t += longest + o.dwell;
+    t += std::max(longest + o.dwell, m->opt.timestep);  // a still leg lasts at least a step
   }
   result.cycle_time = t;
+  if (!(result.cycle_time / m->opt.timestep <= kMaxSizeSteps)) {
+    throw std::invalid_argument(fmt::format(
+        "size: the cycle lasts {:g} s, {:g} steps of the model's {:g} s, beyond the {:g} a sizing "
+        "keeps: shorten --dwell, raise --speed / --accel or take fewer poses in --move",
+        result.cycle_time, result.cycle_time / m->opt.timestep, m->opt.timestep, kMaxSizeSteps));
+  }
 
   // 3. One cycle at the model's own timestep.
   RunOptions run = o.run;
@@ -395,6 +446,12 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
     // The bench (ReflectedInertia at qpos0 for the bench's rotor: the start pose's own when the
     // run starts at qpos0).
     j.bench_inertia = ReflectedInertia(m, s.actuator);
+    if (!(j.bench_inertia > 0) || !std::isfinite(j.bench_inertia)) {
+      throw std::invalid_argument(fmt::format(
+          "size: stepper '{}' moves no inertia at qpos0 (its rotor-side inertia is {:g} kg·m²): "
+          "give its actuator an armature, or its transmission a dof",
+          s.name, j.bench_inertia));
+    }
     PullOutOptions po;
     po.model = fmt::format("size_bench_{}.xml", FilePart(s.name));
     po.model_text = BenchModel(m, s, j.bench_inertia);
@@ -472,9 +529,9 @@ void WriteSizeCsvs(const std::string& prefix, const SizeResult& r) {
       text += fmt::format(
           "{},{},{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},"
           "{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{},{:.17g}\n",
-          j.name, j.motor, j.drive, j.gear, j.bench_inertia, j.peak_speed, j.peak_torque,
-          j.worst_time, j.worst_speed, j.worst_torque, j.worst_pullout, j.margin,
-          j.lost_steps + 0.0, j.current_squared, j.heat ? j.temperature_cycle : NAN,
+          CsvText(j.name), CsvText(j.motor), CsvText(j.drive), j.gear, j.bench_inertia,
+          j.peak_speed, j.peak_torque, j.worst_time, j.worst_speed, j.worst_torque, j.worst_pullout,
+          j.margin, j.lost_steps + 0.0, j.current_squared, j.heat ? j.temperature_cycle : NAN,
           j.heat ? j.temperature : NAN, j.heat ? j.temperature_steady : NAN,
           j.heat ? j.insulation_limit : NAN, r.cycles, r.cycle_time);
     }

@@ -7,7 +7,8 @@
 //  1. each joint's torque-speed demand: the torque its joint needs to follow its drive's plan
 //     exactly (MuJoCo's inverse dynamics, mj_inverse, with every stepper's joint on its plan and
 //     every other dof held at the start pose: the rigid arm's need, gravity, inertia and damping
-//     included), against the commanded speed, rotor side (qfrc_inverse/gear); and one cycle run
+//     included, the actuator's own damping left to the bench's curve), against the commanded
+//     speed, rotor side (qfrc_inverse/gear − B·ω); and one cycle run
 //     (Run, at the model's own timestep) for what the motor then does: its torque τm + τdet
 //     averaged over kDemandWindow, its lost steps and its heat. (A stepper on a tendon has no
 //     single dof: its demand is the simulated motor torque.)
@@ -40,6 +41,10 @@ namespace mjstepper::tools {
 /// the electrical cycle (6 ms at 20 rad/s for Nr = 50), while the instantaneous torque carries the
 /// microstep and detent ripple on top.
 inline constexpr double kDemandWindow = 0.01;
+
+/// The most steps of a sizing's cycle: every step's records are kept (about 20 doubles per
+/// stepper), so this bounds its memory (a cycle of 1000 s at 0.1 ms).
+inline constexpr double kMaxSizeSteps = 1e7;
 
 struct SizeOptions {
   /// The model and how it runs: model, overrides (--set), masses, keyframe, allow_coarse, render,

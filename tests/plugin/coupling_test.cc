@@ -96,6 +96,16 @@ TEST(Coupling, RingsAtTheReferenceFrequencyAtCoarseSteps) {
 // MuJoCo integrates the coupling's own spring (k = 50 N·m/rad, the fast mode's larger share)
 // explicitly whatever the stepper's coupling, so there C-2 removes only the stepper's share of the
 // error; asserted only to be smaller than the explicit coupling's (docs/coupling.md).
+// The coupling as each instance parses it (trimmed): " explicit " is the explicit coupling, in
+// the instance itself and in the model's solve of its coupled steppers, which must not hand it the
+// consistent torque. At ωn·h = 1 the two ring 3.9 % apart.
+TEST(Coupling, ASpacedValueIsTheCouplingItNames) {
+  const double h = 1.0 / kOmegaN;
+  const Ring explicit_ = Released(h, "explicit");
+  EXPECT_DOUBLE_EQ(Released(h, " explicit ").frequency, explicit_.frequency);
+  EXPECT_GT(explicit_.frequency / Released(h, "consistent").frequency - 1, 0.03);
+}
+
 TEST(Coupling, TwoMassModesAtCoarseSteps) {
   const auto [w1, w2] = TwoMassFrequencies();
   auto ring = [&](double h, const char* coupling, double w) {

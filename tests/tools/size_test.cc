@@ -135,6 +135,16 @@ TEST(Size, TheWindingAfterNCyclesIsThatOfNCyclesSimulated) {
   EXPECT_NEAR(j.current_squared, 8.0, 0.16);
 }
 
+// A leg that does not move, without a dwell, still lasts a step: the targets' times rise.
+TEST(Size, AStillLegWithoutDwellLastsAStep) {
+  SizeOptions o = Rotor();
+  o.moves["shaft"] = "0rad";
+  o.dwell = 0;
+  const SizeResult r = Size(o, std::cerr);
+  EXPECT_NEAR(r.cycle_time, 2e-4, 1e-12);  // s: two legs of one step each
+  EXPECT_EQ(r.joints[0].lost_steps, 0);
+}
+
 TEST(Size, ErrorsNameTheOptionAndValue) {
   auto error = [](SizeOptions o) {
     try {
@@ -167,6 +177,14 @@ TEST(Size, ErrorsNameTheOptionAndValue) {
   o = Rotor();
   o.cycles = 0;
   EXPECT_THAT(error(o), HasSubstr("--cycles 0"));
+  o = Rotor();
+  o.dwell = 3600;  // s, twice: 7.2e7 steps of 1e-4 s, beyond what a sizing keeps
+  EXPECT_THAT(error(o), HasSubstr("size: the cycle lasts 7200.4 s, 7.2004e+07 steps"));
+  o = Rotor();
+  o.out = "/tmp/size_test_collision";
+  o.run.log = "/tmp/size_test_collision_shaft.png";
+  EXPECT_THAT(error(o), HasSubstr("'shaft' writes /tmp/size_test_collision_shaft.png, which --log "
+                                  "writes too"));
 }
 
 // A joint's files stay beside the prefix whatever its actuator is called.
