@@ -505,6 +505,26 @@ TEST(Sweep, WritesCsvAndPng) {
   EXPECT_TRUE(IsPng(prefix.string() + ".png"));
 }
 
+// `mjstepper size` end to end: the table printed, PREFIX.csv with a row per stepper, each joint's
+// PNG and CSVs; a bad waypoint fails before any work, naming the option and value.
+TEST(Size, WritesTheTableAndAPngPerJointAndNamesBadValues) {
+  const auto prefix = TempDir() / "size";
+  const std::string rotor = MJSTEPPER_SOURCE_DIR "/tests/tools/models/size_rotor.xml";
+  Result r = RunCli("size " + rotor + " --move shaft=90,0deg --dwell 0.05 --pullout-points 3 " +
+                    "--quiet --out " + prefix.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, AllOf(HasSubstr("margin"), HasSubstr("17hs19_2004s1")));
+  const auto [header, rows] = HeaderAndRows(prefix.string() + ".csv");
+  EXPECT_THAT(header, AllOf(HasSubstr("margin[1]"), HasSubstr("winding_temperature_cycles[°C]")));
+  EXPECT_EQ(rows, 1);
+  EXPECT_TRUE(IsPng(prefix.string() + "_shaft.png"));
+  EXPECT_TRUE(std::filesystem::exists(prefix.string() + "_shaft_demand.csv"));
+  r = RunCli("size " + rotor + " --move shaft=90,abc --quiet --out " + prefix.string() + "_bad");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("--move shaft=90,abc: \"abc\" is not a number"));
+  EXPECT_FALSE(std::filesystem::exists(prefix.string() + "_bad.csv"));
+}
+
 // --set changes a stepper's config for one run: damping all lowers the ripple at the 2nd-harmonic
 // resonance; a bad actuator name is an error that names it.
 TEST(PullOut, WritesCsvAndPngAndNamesBadOptions) {
