@@ -46,7 +46,8 @@ CommandLine::CommandLine(bool out_optional)
       ->check(InRange("duration"));
   run_->add_option("--ctrl", ctrl_,
                    "ACTUATOR=PROFILE, e.g. 'shaft=ramp(0rpm,200rpm,0.8s)'; profiles: constant(X), "
-                   "ramp(A,B,T), trapezoid(V,Ta,Tc,Td); units rpm, rad/s, rad/s², rad, deg, s (on "
+                   "ramp(A,B,T), trapezoid(V,Ta,Tc,Td), targets(A0,A1@T1,…) (angle targets for "
+                   "a drive's own profile); units rpm, rad/s, rad/s², rad, deg, s (on "
                    "a slide or a tendon also m, mm, m/s, mm/s, m/s², mm/s²: θ = gear·x); speeds "
                    "within ±1e4 rad/s, angles ±1e7 rad, times 1e6 s; or steps(FILE), a "
                    "STEP/DIR list (one step time in s per line, optionally +1/-1) for input=steps");
