@@ -10,6 +10,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <tuple>
 #include <variant>
 
 #include "config.h"
@@ -469,9 +470,17 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
   // step's constraint forces (this step's come after actuation). A stepper has one output
   // (checked at load); moment rows, actuator_force and actuator_velocity are per output.
   const int na = static_cast<int>(coupled_.size());  // at most this many rows
-  mj_markStack(d);
-  int* outputs = mj_stackAllocInt(d, na);        // the started ones' outputs
-  mjtNum* torque = mj_stackAllocNum(d, 2 * na);  // τ0 (N·m), then k (N·m/rad)
+  const int nv = m->nv;
+  // Scratch on the C++ stack when it fits (a model's few steppers), else on MuJoCo's: 2·na + R,
+  // F, G and a_ext below at their largest (n = na).
+  constexpr int kLocalInts = 32, kLocalNums = 640;
+  const long need = 2L * na + static_cast<long>(na) * nv + nv + static_cast<long>(na) * na + na;
+  const bool local = na <= kLocalInts && need <= kLocalNums;
+  int local_ints[kLocalInts];
+  mjtNum local_nums[kLocalNums];
+  if (!local) mj_markStack(d);
+  int* outputs = local ? local_ints : mj_stackAllocInt(d, na);      // the started ones' outputs
+  mjtNum* torque = local ? local_nums : mj_stackAllocNum(d, need);  // τ0 (N·m), then k (N·m/rad)
   mjtNum* stiffness = torque + na;
   int n = 0;
   for (const CoupledActuator& c : coupled_) {
@@ -480,23 +489,21 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
     if (!s.drive_ || s.coupling_ != Coupling::kConsistent || !Drive::Started(values)) continue;
     const double theta = d->actuator_length[c.output];
     outputs[n] = c.output;
-    torque[n] = s.drive_->StoredTorque(values, theta);
-    stiffness[n] = s.drive_->StoredStiffness(values, theta);
+    std::tie(torque[n], stiffness[n]) = s.drive_->StoredTorqueAndStiffness(values, theta);
     ++n;
   }
-  const int nv = m->nv;
   if (n == 0) {
-    mj_freeStack(d);
+    if (!local) mj_freeStack(d);
     return;
   }
   auto row_of = [d](int output) {
     const int begin = d->moment_rowadr[output];
     return std::pair{begin, begin + d->moment_rownnz[output]};
   };
-  mjtNum* rows = mj_stackAllocNum(d, n * nv + nv + n * n + n);  // R, then M⁻¹·Rᵀ row by row
-  mjtNum* force = rows + n * nv;                                // F, N·m or N
-  mjtNum* inverse_inertia = force + nv;                         // G, 1/(kg·m²), row-major
-  mjtNum* external = inverse_inertia + n * n;                   // a_ext, rad/s²
+  mjtNum* rows = torque + 2 * na;              // R, then M⁻¹·Rᵀ row by row
+  mjtNum* force = rows + n * nv;               // F, N·m or N
+  mjtNum* inverse_inertia = force + nv;        // G, 1/(kg·m²), row-major
+  mjtNum* external = inverse_inertia + n * n;  // a_ext, rad/s²
   mju_zero(rows, n * nv);
   for (int i = 0; i < n; ++i) {
     const auto [begin, end] = row_of(outputs[i]);
@@ -559,7 +566,7 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
     } catch (...) {
     }
   }
-  mj_freeStack(d);
+  if (!local) mj_freeStack(d);
 }
 
 bool Stepper::WarnOnce(unsigned cause, const std::string& message) const {

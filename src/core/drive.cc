@@ -735,7 +735,17 @@ double Drive::StoredTorque(const double* values, double theta) const {
 }
 
 double Drive::StoredStiffness(const double* values, double theta) const {
+  return StiffnessOf(ReadStored(values, theta));
+}
+
+std::pair<double, double> Drive::StoredTorqueAndStiffness(const double* values,
+                                                          double theta) const {
   const StoredMotor s = ReadStored(values, theta);
+  const auto [torque_em, torque_detent] = Torques(s.current, s.rotor, s.torque_constant);
+  return {torque_em + torque_detent, StiffnessOf(s)};
+}
+
+double Drive::StiffnessOf(const StoredMotor& s) const {
   // S-4: ∂/∂θ Km·Im(z̄·i) = −Nr·Km·Re(z̄·i), z = e^{jNrθ}; S-5: ∂/∂θ −Im(Σh wh·z^h) =
   // −Nr·Re(Σh h·wh·z^h).
   PhaseVector detent(0, 0), power(1, 0);

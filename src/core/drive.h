@@ -294,6 +294,8 @@ class Drive {
   /// k = −∂(τm + τdet)/∂θ at θ with the stored currents held (N·m/rad), S-4, S-5: the stiffness
   /// the rotor feels over one step (the consistent coupling, core/coupling.h).
   double StoredStiffness(const double* values, double theta) const;
+  /// StoredTorque and StoredStiffness from one read of the stored state: {τ (N·m), k (N·m/rad)}.
+  std::pair<double, double> StoredTorqueAndStiffness(const double* values, double theta) const;
 
   DriveSignals Signals(const DriveState& state, double theta) const;
 
@@ -391,6 +393,8 @@ class Drive {
     double torque_constant;  // Km at the stored winding temperature, N·m/A
   };
   StoredMotor ReadStored(const double* values, double theta) const;
+  // k = −∂(τm + τdet)/∂θ of a read state, S-4, S-5.
+  double StiffnessOf(const StoredMotor& s) const;
   std::pair<double, double> Torques(PhaseVector current, PhaseVector z,
                                     double torque_constant) const;
 
