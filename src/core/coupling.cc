@@ -1,7 +1,9 @@
 #include "core/coupling.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace mjstepper {
@@ -32,43 +34,69 @@ double ConsistentTorque(double torque, double stiffness, double inertia, double 
   return sigma * torque + (sigma - 1.0) * inertia * external_accel;  // C-2
 }
 
+namespace {
+
+// C-3 with matrices of at most MaxN rows (no heap allocation when MaxN is fixed: it runs every
+// step), Eigen::Dynamic for any n.
+template <int MaxN>
+void SolveConsistentTorques(std::span<const double> inverse_inertia,
+                            std::span<const double> stiffness, std::span<const double> torque,
+                            std::span<const double> external_accel, double h,
+                            std::vector<double>& out) {
+  using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN>;
+  using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, MaxN, 1>;
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const Eigen::Index n = static_cast<Eigen::Index>(torque.size());
+  const Eigen::Map<const RowMajor> g_in(inverse_inertia.data(), n, n);
+  const Eigen::Map<const Eigen::VectorXd> k_in(stiffness.data(), n), tau_in(torque.data(), n),
+      external_in(external_accel.data(), n);
+  if (!(h > 0) || !std::isfinite(h) || !g_in.allFinite() || !k_in.allFinite() ||
+      !external_in.allFinite() || !tau_in.allFinite()) {
+    return;
+  }
+  const Vector k = k_in, tau = tau_in, external = external_in;
+  const Matrix g = 0.5 * (g_in + g_in.transpose());  // symmetric to round-off
+  // G = L·Lᵀ (Cholesky). A = G·K = L·(Lᵀ·K·L)·L⁻¹: A is similar to the symmetric S = Lᵀ·K·L, so
+  // σ(h²·A) = L·W·diag(σ(h²·λ))·Wᵀ·L⁻¹ with S = W·diag(λ)·Wᵀ (C-1 on each mode). Then, with
+  // a0 = G·τ0 + a_ext, C-3's G⁻¹·(σ·a0 − a_ext) is L⁻ᵀ·(W·diag(σ)·Wᵀ·y − z), z = L⁻¹·a_ext and
+  // y = L⁻¹·a0 = Lᵀ·τ0 + z: one Cholesky and one symmetric eigenproblem.
+  const Eigen::LLT<Matrix> cholesky(g);
+  // Positive definite to well within round-off (two steppers on one joint make G singular): else
+  // the steppers keep their torques at the step's start. L's pivots squared bound G's spectrum.
+  if (cholesky.info() != Eigen::Success) return;
+  const Matrix l = cholesky.matrixL();
+  double least = std::numeric_limits<double>::infinity(), most = 0;  // pivots², 1/(kg·m²)
+  for (Eigen::Index i = 0; i < n; ++i) {
+    least = std::min(least, l(i, i) * l(i, i));
+    most = std::max(most, l(i, i) * l(i, i));
+  }
+  if (!(least > 1e-9 * most)) return;
+  const Matrix s = l.transpose() * k.asDiagonal() * l;
+  const Eigen::SelfAdjointEigenSolver<Matrix> modes(s);
+  if (modes.info() != Eigen::Success) return;
+  Vector scale(n);
+  for (Eigen::Index i = 0; i < n; ++i) scale(i) = StiffnessScale(h * h * modes.eigenvalues()(i));
+  const Vector z = l.template triangularView<Eigen::Lower>().solve(external);
+  const Vector y = l.transpose() * tau + z;
+  const Matrix& w = modes.eigenvectors();
+  const Vector mixed = w * scale.cwiseProduct(w.transpose() * y) - z;
+  const Vector handed = l.transpose().template triangularView<Eigen::Upper>().solve(mixed);  // C-3
+  Eigen::Map<Eigen::VectorXd>(out.data(), n) = handed;
+}
+
+}  // namespace
+
 std::vector<double> ConsistentTorques(std::span<const double> inverse_inertia,
                                       std::span<const double> stiffness,
                                       std::span<const double> torque,
                                       std::span<const double> external_accel, double h) {
-  const Eigen::Index n = static_cast<Eigen::Index>(torque.size());
   std::vector<double> out(torque.begin(), torque.end());
-  using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  const Eigen::Map<const Matrix> g_in(inverse_inertia.data(), n, n);
-  const Eigen::Map<const Eigen::VectorXd> k(stiffness.data(), n), tau(torque.data(), n),
-      external(external_accel.data(), n);
-  if (!(h > 0) || !std::isfinite(h) || !g_in.allFinite() || !k.allFinite() ||
-      !external.allFinite() || !tau.allFinite()) {
-    return out;
+  if (torque.size() <= 8) {  // an arm's steppers: fixed-capacity matrices
+    SolveConsistentTorques<8>(inverse_inertia, stiffness, torque, external_accel, h, out);
+  } else {
+    SolveConsistentTorques<Eigen::Dynamic>(inverse_inertia, stiffness, torque, external_accel, h,
+                                           out);
   }
-  const Eigen::MatrixXd g = 0.5 * (g_in + g_in.transpose());  // symmetric to round-off
-  // G = V·diag(γ)·Vᵀ, γ > 0: G^½ and G^−½.
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> inertia(g);
-  // Positive definite to well within round-off (two steppers on one joint make G singular): else
-  // the steppers keep their torques at the step's start.
-  if (inertia.info() != Eigen::Success ||
-      !(inertia.eigenvalues().minCoeff() > 1e-9 * inertia.eigenvalues().maxCoeff())) {
-    return out;
-  }
-  const Eigen::MatrixXd& v = inertia.eigenvectors();
-  const Eigen::VectorXd root_gamma = inertia.eigenvalues().cwiseSqrt();
-  const Eigen::MatrixXd root = v * root_gamma.asDiagonal() * v.transpose();
-  const Eigen::MatrixXd inverse_root = v * root_gamma.cwiseInverse().asDiagonal() * v.transpose();
-  // σ(h²·S), S = G^½·K·G^½ symmetric: σ(h²·λ) on each of its modes (C-1).
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> modes(root * k.asDiagonal() * root);
-  if (modes.info() != Eigen::Success) return out;
-  Eigen::VectorXd scale(n);
-  for (Eigen::Index i = 0; i < n; ++i) scale(i) = StiffnessScale(h * h * modes.eigenvalues()(i));
-  const Eigen::MatrixXd sigma = root * modes.eigenvectors() * scale.asDiagonal() *
-                                modes.eigenvectors().transpose() * inverse_root;  // σ(h²·A)
-  const Eigen::VectorXd accel = g * tau + external;                               // a0
-  const Eigen::VectorXd handed = g.ldlt().solve(sigma * accel - external);        // C-3
-  Eigen::Map<Eigen::VectorXd>(out.data(), n) = handed;
   return out;
 }
 

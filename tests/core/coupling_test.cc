@@ -119,6 +119,10 @@ TEST(Coupling, CoupledRotorsRingAtTheirModes) {
     std::sort(want.begin(), want.end());
     for (int i = 0; i < 4; ++i) EXPECT_NEAR(angles[i], want[i], 1e-9) << wh;
   }
+  // Two steppers on one joint make G singular (both rows the joint's): each keeps its τ0.
+  const std::vector<double> same = {1 / 3.6e-5, 1 / 3.6e-5, 1 / 3.6e-5, 1 / 3.6e-5};
+  const std::vector<double> k2 = {28.5, 28.5}, tau2 = {0.3, -0.1}, a2 = {-500, -500};
+  EXPECT_EQ(ConsistentTorques(same, k2, tau2, a2, 1e-3), tau2);
   // One rotor: C-3 is C-2.
   const std::vector<double> one = {1 / 3.6e-5}, k1 = {28.5}, tau1 = {0.3}, a1 = {-500};
   EXPECT_NEAR(ConsistentTorques(one, k1, tau1, a1, 1e-3)[0],
