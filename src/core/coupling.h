@@ -29,8 +29,9 @@
 // inertia matrix, symmetric positive definite), K = diag(k) and a_ext = R·M⁻¹·F, the linearised
 // rotors obey θ'' = G·(τ0 − K·Δθ) + a_ext, and C-1 applied mode by mode to A = G·K gives
 //     τ = G⁻¹·(σ(h²·A)·(G·τ0 + a_ext) − a_ext),                                 (C-3)
-// σ(h²·A) = G^½·σ(h²·G^½·K·G^½)·G^−½ (a symmetric eigenproblem, any sign of k). For one stepper C-3
-// is C-2.
+// σ(h²·A) = L·σ(h²·Lᵀ·K·L)·L⁻¹ with G = L·Lᵀ (Cholesky): A is similar to the symmetric Lᵀ·K·L, so
+// one symmetric eigenproblem serves, any sign of k (G^½ in place of L gives the same σ). For one
+// stepper C-3 is C-2.
 #ifndef MJSTEPPER_CORE_COUPLING_H_
 #define MJSTEPPER_CORE_COUPLING_H_
 
