@@ -443,9 +443,9 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
     }
     j.lost_steps = result.run.steppers[i].lost_steps;
 
-    // The bench (ReflectedInertia at qpos0 for the bench's rotor: the start pose's own when the
-    // run starts at qpos0).
-    j.bench_inertia = ReflectedInertia(m, s.actuator);
+    // The bench: a rotor of the joint's rotor-side inertia at the start pose (qpos0 or the
+    // keyframe's), the other joints held.
+    j.bench_inertia = ReflectedInertia(m, s.actuator, data0.get());  // at the start pose
     if (!(j.bench_inertia > 0) || !std::isfinite(j.bench_inertia)) {
       throw std::invalid_argument(fmt::format(
           "size: stepper '{}' moves no inertia at qpos0 (its rotor-side inertia is {:g} kg·m²): "

@@ -14,7 +14,8 @@
 //     single dof: its demand is the simulated motor torque.)
 //  2. simulates each motor's pull-out curve (PullOut) with its drive and bus, on a bench: the
 //     same <config> (its motion profile off) on a rotor of the joint's rotor-side inertia at the
-//     start pose (ReflectedInertia) and the actuator's damping, no gravity or friction;
+//     start pose (ReflectedInertia, the other joints held) and the actuator's damping, no gravity
+//     or friction;
 //  3. compares them: at each sample the margin 1 − |τ|/T_po(|ω|) (the curve interpolated
 //     linearly in speed; beyond the curve, (T_po − |τ|)/|τ|, minus the share of the demand the
 //     motor lacks, down to −1), the worst one, and the full steps the drive counted as lost;

@@ -311,8 +311,9 @@ std::vector<double> MomentRow(const mjModel* m, const mjData* d, int actuator) {
   return row;
 }
 
-double ReflectedInertia(const mjModel* m, int actuator) {
+double ReflectedInertia(const mjModel* m, int actuator, const mjData* pose) {
   DataPtr d(mj_makeData(m));
+  if (pose != nullptr) mju_copy(d->qpos, pose->qpos, m->nq);
   mj_forward(m, d.get());
   std::vector<mjtNum> dense(m->nv * m->nv);
   mj_fullM(m, d.get(), dense.data());

@@ -129,7 +129,8 @@ std::vector<ResonantSpeed> ResonantSpeeds(const std::vector<plugin::Mode>& modes
 /// row r = ∂θ/∂q (gear on a joint, gear·∂L/∂q on a tendon): the dofs the row moves are free, every
 /// other dof is held, J = 1/(r_S·M_SS⁻¹·r_Sᵀ) over the row's dofs S. On a joint that is
 /// M[dof, dof]/gear² (computed so, to the bit); on a fixed tendon over one joint the same.
-double ReflectedInertia(const mjModel* m, int actuator);
+/// With `pose`, at its qpos (a model with m's layout) instead of qpos0.
+double ReflectedInertia(const mjModel* m, int actuator, const mjData* pose = nullptr);
 
 /// The actuator's moment row at d's pose (after mj_forward or mj_fwdPosition): ∂θ/∂q, dense over
 /// the nv dofs (gear at the joint's dof on a joint transmission; gear·∂L/∂q on a tendon).

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "runner.h"
+#include "stepper_model.h"
 
 namespace mjstepper::tools {
 namespace {
@@ -185,6 +186,20 @@ TEST(Size, ErrorsNameTheOptionAndValue) {
   o.run.log = "/tmp/size_test_collision_shaft.png";
   EXPECT_THAT(error(o), HasSubstr("'shaft' writes /tmp/size_test_collision_shaft.png, which --log "
                                   "writes too"));
+}
+
+// The bench's rotor carries the joint's inertia at the start pose: models/arm3.xml's base turns
+// less inertia with the elbow folded (the forearm nearer its axis) than stretched out at qpos0.
+TEST(Size, TheBenchInertiaIsTheStartPoses) {
+  const StepperModel sm = LoadStepperModel(MJSTEPPER_SOURCE_DIR "/models/arm3.xml");
+  const mjModel* m = sm.model.get();
+  const DataPtr d(mj_makeData(m));
+  const int base = sm.steppers[0].actuator, elbow = 2;  // qpos: base, shoulder, elbow
+  d->qpos[elbow] = 1.5;                                 // rad
+  const double stretched = ReflectedInertia(m, base), folded = ReflectedInertia(m, base, d.get());
+  std::printf("base's rotor-side inertia: %.4g kg·m² stretched, %.4g folded\n", stretched, folded);
+  EXPECT_LT(folded, 0.8 * stretched);
+  EXPECT_EQ(ReflectedInertia(m, base, nullptr), stretched);
 }
 
 // A joint's files stay beside the prefix whatever its actuator is called.
