@@ -1,16 +1,17 @@
 // The MJCF config parser (plugin/config.h): strict numbers, presets, overrides, docs.
 #include "config.h"
 
-#include "core/signals.h"
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
 #include <variant>
+
+#include "core/signals.h"
 
 namespace mjstepper::plugin {
 namespace {
@@ -80,6 +81,22 @@ TEST(Config, StealthChopReachesItsRunCurrentOrFailsToLoad) {
   const auto misplaced = ParseMap({{"drive", "chopper"}, {"pwm_grad", "20"}});
   ASSERT_TRUE(std::holds_alternative<std::string>(misplaced));
   EXPECT_THAT(std::get<std::string>(misplaced), HasSubstr("read by stealthchop"));
+}
+
+// A catalogue motor's current drive defaults to the peak of its rated RMS current (its datasheet's
+// holding torque and temperature rise), not Tsui's 1.9 A, which would overdrive a 1 A motor; a
+// given hold_current stands.
+TEST(Config, CatalogueMotorsDefaultToTheirRatedCurrent) {
+  for (const auto& [motor, rated] : {std::pair{"qsh4218_41", 1.0}, {"17hs19_2004s1", 2.0}}) {
+    const auto parsed = ParseMap({{"motor", motor}});
+    ASSERT_TRUE(std::holds_alternative<DriveConfig>(parsed)) << motor;
+    const auto& drive = std::get<CurrentMicrostep>(std::get<DriveConfig>(parsed).controller);
+    EXPECT_DOUBLE_EQ(drive.setpoint.hold_current, std::sqrt(2.0) * rated) << motor;
+  }
+  const auto given = ParseMap({{"motor", "qsh4218_41"}, {"hold_current", "0.5"}});
+  EXPECT_EQ(
+      std::get<CurrentMicrostep>(std::get<DriveConfig>(given).controller).setpoint.hold_current,
+      0.5);
 }
 
 TEST(Config, DefaultsAreTsuiCurrentMicrostepping) {
@@ -188,8 +205,8 @@ TEST(Config, KimControllersAndGainSets) {
   EXPECT_EQ(s.mechanical.k1p, 40000);
   EXPECT_EQ(s.mechanical.load_torque, 0.1);  // the preset's τl
   EXPECT_EQ(s.mechanical.inertia, 4.8e-5);   // the preset's J
-  const auto case2 = ParseMap({{"motor", "kim2016"}, {"drive", "foc"}, {"foc_case", "case2"},
-                               {"ff_inertia", "5e-5"}});
+  const auto case2 = ParseMap(
+      {{"motor", "kim2016"}, {"drive", "foc"}, {"foc_case", "case2"}, {"ff_inertia", "5e-5"}});
   ASSERT_TRUE(std::holds_alternative<DriveConfig>(case2)) << std::get<std::string>(case2);
   const HighGainFoc& f = std::get<HighGainFoc>(std::get<DriveConfig>(case2).controller);
   EXPECT_EQ(f.mechanical.k1p, 10000);

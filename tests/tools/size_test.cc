@@ -8,10 +8,14 @@
 #include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <sstream>
 #include <string>
 
 #include "runner.h"
@@ -88,6 +92,49 @@ TEST(Size, DemandIsInertiaTimesAccelerationAndPullOutAtRestIsTheHoldingTorque) {
   EXPECT_NEAR(j.margin, 1 - std::abs(j.worst_torque) / j.worst_pullout, 1e-12);
   EXPECT_GT(j.margin, 0.5);
   EXPECT_EQ(j.lost_steps, 0);
+}
+
+// The actuator's damping is in the bench's pull-out curve (the torque left beyond it), so the
+// demand leaves it out: with B = 0.01 N·m·s/rad (0.1 N·m at 10 rad/s, five times J·A) the demand
+// while accelerating is still J·A.
+TEST(Size, TheActuatorsDampingIsCountedInTheCurveNotTheDemand) {
+  std::ifstream in(kRotor);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string xml = text.str();
+  const std::string armature = R"(armature="8.2e-6")";
+  xml.replace(xml.find(armature), armature.size(), armature + R"( damping="0.01")");
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("size_damped_" + std::to_string(::getpid()) + ".xml");
+  std::ofstream(path) << xml;
+  SizeOptions o = Rotor();
+  o.run.model = path.string();
+  const SizeResult r = Size(o, std::cerr);
+  std::filesystem::remove(path);
+  const SizeJoint& j = r.joints[0];
+  EXPECT_NEAR(Mean(j.torque, j.time, 0.02, 0.08), kInertia * kAccel, 1e-9);
+}
+
+// Names with a comma or a quote stay one CSV field.
+TEST(Size, TheTableQuotesItsNames) {
+  SizeResult r;
+  SizeJoint j;
+  j.name = R"(wrist, "roll")";
+  j.motor = "m";
+  j.drive = "d";
+  r.joints.push_back(j);
+  const auto prefix =
+      std::filesystem::temp_directory_path() / ("size_quoted_" + std::to_string(::getpid()));
+  WriteSizeCsvs(prefix.string(), r);
+  std::ifstream in(prefix.string() + ".csv");
+  std::string header, row;
+  std::getline(in, header);
+  std::getline(in, row);
+  EXPECT_TRUE(row.starts_with(R"("wrist, ""roll""",m,d,)")) << row;
+  for (const std::string& file : SizeJointOutputs(prefix.string(), j.name)) {
+    std::filesystem::remove(file);
+  }
+  std::filesystem::remove(prefix.string() + ".csv");
 }
 
 TEST(Size, ALoadTheMotorCannotAccelerateLosesStepsBeyondItsCurve) {
