@@ -6,7 +6,8 @@
 // For instruction counts, which this VM's drifting clock does not disturb:
 //   valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Round*'
 //       build/bench_step 20000 stepper    (or stepper1mhz, dcmotor, dcmotor_ripple):
-//   Ir / (8·20000) per step.
+//   Ir / (8·20000) per step. The 6-DOF arm: bench_step 1000 arm6 [TIMESTEP] (or arm6_servo);
+//   bench/arm_cost.sh runs them.
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
 
@@ -30,14 +31,24 @@ struct Stepping {
 };
 
 // Loads `path`; a non-empty `configs` is inserted into its stepper's <config> list (e.g. the 1 MHz
-// clock), through a VFS under the file's own name.
-Stepping Load(const std::string& path, double ctrl, const std::string& configs = "") {
+// clock), a non-empty `timestep` (s) replaces the model's 1 ms one, through a VFS under the file's
+// own name.
+Stepping Load(const std::string& path, double ctrl, const std::string& configs = "",
+              const std::string& timestep = "") {
   char error[1024] = "";
   std::ifstream file(path);
   std::stringstream text;
   text << file.rdbuf();
   std::string xml = text.str();
   if (!configs.empty()) xml.insert(xml.find("<config key=\"motor\""), configs);
+  if (!timestep.empty()) {
+    const std::string own = R"(timestep="1e-3")";
+    if (xml.find(own) == std::string::npos) {
+      fmt::print(stderr, "{}: no {} to replace\n", path, own);
+      std::exit(1);
+    }
+    xml.replace(xml.find(own), own.size(), fmt::format(R"(timestep="{}")", timestep));
+  }
   // Another drive (issue 17's chopper, SpreadCycle, StealthChop) in place of the PI loop, at the
   // same peak current (1.9 A): the model's own drive key removed, as MJCF keeps the first.
   if (configs.find(R"(key="drive")") != std::string::npos) {
@@ -112,6 +123,19 @@ int main(int argc, char** argv) {
   // "stepper", "stepper_explicit", "stepper1mhz", "chopper", "chopper_heat", "spreadcycle",
   // "stealthchop", "dcmotor" or "dcmotor_ripple": that one alone (for callgrind)
   const std::string only = argc > 2 ? argv[2] : "";
+  // "arm6" (models/arm6.xml, six steppers on position trapezoids) or "arm6_servo" (the same arm on
+  // MuJoCo's position servos), holding the standby pose from qpos0 against gravity, the plugin
+  // alone (no probe sensors, unlike `mjstepper run`); an optional timestep (s) replaces their 1 ms.
+  if (only == "arm6" || only == "arm6_servo") {
+    const Stepping s = Load(dir + only + ".xml", 0.0, "", argc > 3 ? argv[3] : "");
+    double best = 1e300;
+    for (int round = 0; round < 8; ++round) best = std::min(best, Round(s, steps));
+    fmt::print("{} at {:g} s: {:.1f} ns/step, {:.3g} s per simulated second\n", only,
+               s.model->opt.timestep, best, best * 1e-9 / s.model->opt.timestep);
+    mj_deleteData(s.data);
+    mj_deleteModel(s.model);
+    return 0;
+  }
   // The PI drive with the torque at the step's start (the coupling before issue 20).
   const std::string explicit_coupling = R"(<config key="coupling" value="explicit"/>)";
   if (only == "stepper" || only == "stepper_explicit" || only == "stepper1mhz" ||

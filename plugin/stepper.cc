@@ -472,9 +472,9 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
   const int na = static_cast<int>(coupled_.size());  // at most this many rows
   const int nv = m->nv;
   // Scratch on the C++ stack when it fits (a model's few steppers), else on MuJoCo's: 2·na + R,
-  // F, G and a_ext below at their largest (n = na).
+  // F, G, a_ext and the handed torques below at their largest (n = na).
   constexpr int kLocalInts = 32, kLocalNums = 640;
-  const long need = 2L * na + static_cast<long>(na) * nv + nv + static_cast<long>(na) * na + na;
+  const long need = 3L * na + static_cast<long>(na) * nv + nv + static_cast<long>(na) * na + na;
   const bool local = na <= kLocalInts && need <= kLocalNums;
   int local_ints[kLocalInts];
   mjtNum local_nums[kLocalNums];
@@ -504,6 +504,7 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
   mjtNum* force = rows + n * nv;               // F, N·m or N
   mjtNum* inverse_inertia = force + nv;        // G, 1/(kg·m²), row-major
   mjtNum* external = inverse_inertia + n * n;  // a_ext, rad/s²
+  mjtNum* handed = external + n;               // C-3's torques, N·m
   mju_zero(rows, n * nv);
   for (int i = 0; i < n; ++i) {
     const auto [begin, end] = row_of(outputs[i]);
@@ -558,10 +559,9 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
           ConsistentTorque(torque[0], stiffness[0], 1.0 / inverse_inertia[0], external[0], h);
     }
   } else {
-    try {  // C-3 allocates: no exception crosses into MuJoCo (τ0 stays on failure)
-      const std::vector<double> handed =
-          ConsistentTorques(std::span(inverse_inertia, n * n), std::span(stiffness, n),
-                            std::span(torque, n), std::span(external, n), h);
+    try {  // C-3/C-4 allocate beyond 8 steppers: no exception crosses into MuJoCo
+      ConsistentTorques(std::span(inverse_inertia, n * n), std::span(stiffness, n),
+                        std::span(torque, n), std::span(external, n), h, std::span(handed, n));
       for (int i = 0; i < n; ++i) d->actuator_force[outputs[i]] = handed[i];
     } catch (...) {
     }

@@ -2,9 +2,11 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <vector>
 
 namespace mjstepper {
 
@@ -12,12 +14,49 @@ double MaxOmegaTimesStep(Coupling coupling) {
   return coupling == Coupling::kConsistent ? 0.2 : 0.15;  // docs/coupling.md, the ripple table
 }
 
+namespace {
+
+constexpr double kPiSquared = std::numbers::pi * std::numbers::pi;
+
+// C-4's series: φ(u) = Σⱼ cⱼ·u^j, cⱼ = 2·(−1)^(j+1)/(2j+4)!, for |u| (or ‖X‖∞) up to kSeriesReach.
+constexpr int kSeriesTerms = 16;
+constexpr double kSeriesReach = 9.0;  // < π²: no mode reaches C-1's hold
+struct Series {
+  std::array<double, kSeriesTerms> c{};
+  // reach[N]: the largest x for which N terms leave a first omitted term |c_N|·x^N below 1e-18
+  // (φ is about −1/12; the terms shrink by x/((2j+5)(2j+6)) <= 0.3 each beyond it).
+  std::array<double, kSeriesTerms + 1> reach{};
+  Series() {
+    double factorial = 24.0;  // (2j+4)! at j = 0
+    for (int j = 0; j < kSeriesTerms; ++j) {
+      c[j] = (j % 2 == 0 ? -2.0 : 2.0) / factorial;
+      factorial *= (2.0 * j + 5) * (2.0 * j + 6);
+    }
+    reach[0] = 0;
+    for (int n = 1; n < kSeriesTerms; ++n) reach[n] = std::pow(1e-18 / std::abs(c[n]), 1.0 / n);
+    reach[kSeriesTerms] = kSeriesReach;
+  }
+  // How many terms serve for arguments of magnitude up to x (<= kSeriesReach).
+  int Terms(double x) const {
+    int n = 1;
+    while (n < kSeriesTerms && x > reach[n]) ++n;
+    return n;
+  }
+};
+const Series kSeries;
+
+}  // namespace
+
 double StiffnessScale(double u) {
   if (!std::isfinite(u)) return 1.0;
-  constexpr double kPiSquared = std::numbers::pi * std::numbers::pi;
   if (u >= kPiSquared) return 3.96 / u;  // ωh >= π: just inside the stability limit (C-1)
   if (u < -kPiSquared) u = -kPiSquared;  // a falling rotor: at most its growth over |ω|h = π
-  if (std::abs(u) < 1e-4) return 1.0 - u / 12.0 + u * u / 360.0;  // series: error < 1e-15
+  if (std::abs(u) <= kSeriesReach) {     // σ = 1 + u·φ(u), C-4's series
+    const int terms = kSeries.Terms(std::abs(u));
+    double phi = kSeries.c[terms - 1];
+    for (int j = terms - 2; j >= 0; --j) phi = phi * u + kSeries.c[j];
+    return 1.0 + u * phi;
+  }
   const double root = std::sqrt(std::abs(u));
   // 1 − cos √u = 2·sin²(√u/2), and cosh √|u| − 1 = 2·sinh²(√|u|/2): no cancellation.
   const double half = u > 0 ? std::sin(root / 2) : std::sinh(root / 2);
@@ -36,13 +75,13 @@ double ConsistentTorque(double torque, double stiffness, double inertia, double 
 
 namespace {
 
-// C-3 with matrices of at most MaxN rows (no heap allocation when MaxN is fixed: it runs every
-// step), Eigen::Dynamic for any n.
+// C-3 by the eigenproblem (inputs finite, h > 0), with matrices of at most MaxN rows (no heap
+// allocation when MaxN is fixed), Eigen::Dynamic for any n.
 template <int MaxN>
 void SolveConsistentTorques(std::span<const double> inverse_inertia,
                             std::span<const double> stiffness, std::span<const double> torque,
                             std::span<const double> external_accel, double h,
-                            std::vector<double>& out) {
+                            std::span<double> out) {
   using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN>;
   using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, MaxN, 1>;
   using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
@@ -50,10 +89,6 @@ void SolveConsistentTorques(std::span<const double> inverse_inertia,
   const Eigen::Map<const RowMajor> g_in(inverse_inertia.data(), n, n);
   const Eigen::Map<const Eigen::VectorXd> k_in(stiffness.data(), n), tau_in(torque.data(), n),
       external_in(external_accel.data(), n);
-  if (!(h > 0) || !std::isfinite(h) || !g_in.allFinite() || !k_in.allFinite() ||
-      !external_in.allFinite() || !tau_in.allFinite()) {
-    return;
-  }
   const Vector k = k_in, tau = tau_in, external = external_in;
   const Matrix g = 0.5 * (g_in + g_in.transpose());  // symmetric to round-off
   // G = L·Lᵀ (Cholesky). A = G·K = L·(Lᵀ·K·L)·L⁻¹: A is similar to the symmetric S = Lᵀ·K·L, so
@@ -86,18 +121,63 @@ void SolveConsistentTorques(std::span<const double> inverse_inertia,
 
 }  // namespace
 
-std::vector<double> ConsistentTorques(std::span<const double> inverse_inertia,
-                                      std::span<const double> stiffness,
-                                      std::span<const double> torque,
-                                      std::span<const double> external_accel, double h) {
-  std::vector<double> out(torque.begin(), torque.end());
-  if (torque.size() <= 8) {  // an arm's steppers: fixed-capacity matrices
-    SolveConsistentTorques<8>(inverse_inertia, stiffness, torque, external_accel, h, out);
+void ConsistentTorques(std::span<const double> inverse_inertia, std::span<const double> stiffness,
+                       std::span<const double> torque, std::span<const double> external_accel,
+                       double h, std::span<double> out) {
+  const std::size_t n = torque.size();
+  std::copy(torque.begin(), torque.end(), out.begin());  // τ0 unless solved
+  const auto finite = [](std::span<const double> x) {
+    return std::all_of(x.begin(), x.end(), [](double v) { return std::isfinite(v); });
+  };
+  if (!(h > 0) || !std::isfinite(h) || !finite(inverse_inertia) || !finite(stiffness) ||
+      !finite(torque) || !finite(external_accel)) {
+    return;
+  }
+  // C-4 while every mode's h²·λ lies within the series' reach (‖X‖∞ bounds them), else C-3.
+  constexpr std::size_t kLocal = 8;
+  std::array<double, kLocal * kLocal + 3 * kLocal> local;
+  std::vector<double> heap;
+  double* x = local.data();  // X = h²·G·K, row-major; then a0, φ(X)·a0 and a scratch row
+  if (n > kLocal) {
+    heap.resize(n * n + 3 * n);
+    x = heap.data();
+  }
+  double* a0 = x + n * n;
+  double* phi_a0 = a0 + n;
+  double* next = phi_a0 + n;
+  double norm = 0;  // ‖X‖∞
+  for (std::size_t i = 0; i < n; ++i) {
+    double row = 0, a = external_accel[i];
+    for (std::size_t j = 0; j < n; ++j) {
+      const double g = 0.5 * (inverse_inertia[i * n + j] + inverse_inertia[j * n + i]);
+      x[i * n + j] = h * h * g * stiffness[j];
+      row += std::abs(x[i * n + j]);
+      a += g * torque[j];
+    }
+    a0[i] = a;  // G·τ0 + a_ext, rad/s²
+    norm = std::max(norm, row);
+  }
+  if (norm <= kSeriesReach) {
+    // φ(X)·a0 by Horner's rule: p ← X·p + cⱼ·a0, from the last term down.
+    const int terms = kSeries.Terms(norm);
+    for (std::size_t i = 0; i < n; ++i) phi_a0[i] = kSeries.c[terms - 1] * a0[i];
+    for (int t = terms - 2; t >= 0; --t) {
+      for (std::size_t i = 0; i < n; ++i) {
+        double sum = kSeries.c[t] * a0[i];
+        for (std::size_t j = 0; j < n; ++j) sum += x[i * n + j] * phi_a0[j];
+        next[i] = sum;
+      }
+      std::copy(next, next + n, phi_a0);
+    }
+    for (std::size_t i = 0; i < n; ++i) out[i] = torque[i] + h * h * stiffness[i] * phi_a0[i];
+    return;  // C-4
+  }
+  if (n <= kLocal) {  // an arm's steppers: fixed-capacity matrices
+    SolveConsistentTorques<kLocal>(inverse_inertia, stiffness, torque, external_accel, h, out);
   } else {
     SolveConsistentTorques<Eigen::Dynamic>(inverse_inertia, stiffness, torque, external_accel, h,
                                            out);
   }
-  return out;
 }
 
 }  // namespace mjstepper

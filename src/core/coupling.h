@@ -32,11 +32,20 @@
 // σ(h²·A) = L·σ(h²·Lᵀ·K·L)·L⁻¹ with G = L·Lᵀ (Cholesky): A is similar to the symmetric Lᵀ·K·L, so
 // one symmetric eigenproblem serves, any sign of k (G^½ in place of L gives the same σ). For one
 // stepper C-3 is C-2.
+//
+// With φ(u) = (σ(u) − 1)/u, so that σ(X) = I + X·φ(X) for X = h²·A, C-3 needs no G⁻¹:
+//     τ = τ0 + h²·K·φ(X)·(G·τ0 + a_ext),   φ(u) = Σⱼ 2·(−1)^(j+1)·u^j/(2j+4)!     (C-4)
+// (φ = −1/12 + u/360 − u²/20160 + …). Every eigenvalue of X lies within ‖X‖∞, so while
+// ‖X‖∞ <= 9 (< π², where C-1 is not held) the series converges to round-off in at most 16 terms,
+// each a matrix-vector product: a handful at the steps the timestep rule recommends (‖X‖∞ about
+// 0.04), where the eigenproblem cost some 20 000 instructions for an arm's six steppers. Beyond
+// it C-3 goes by the eigenproblem. C-4 also holds where G is singular (two steppers on one
+// joint: the pair is handed C-2 of their joint, shared in proportion to their stiffnesses),
+// which the eigenproblem's route leaves at τ0.
 #ifndef MJSTEPPER_CORE_COUPLING_H_
 #define MJSTEPPER_CORE_COUPLING_H_
 
 #include <span>
-#include <vector>
 
 namespace mjstepper {
 
@@ -64,13 +73,13 @@ double ConsistentTorque(double torque, double stiffness, double inertia, double 
 
 /// C-3 for n coupled steppers: G (1/(kg·m²), n×n, row-major), their stiffnesses k (N·m/rad),
 /// torques at the step's start τ0 (N·m) and the other forces' rotor accelerations a_ext (rad/s²);
-/// the torques to hand the integrator. τ0 itself when G is not positive definite or h not
-/// positive and finite. (No Eigen type crosses this interface: callers may be built without the
-/// core's vector instructions.)
-std::vector<double> ConsistentTorques(std::span<const double> inverse_inertia,
-                                      std::span<const double> stiffness,
-                                      std::span<const double> torque,
-                                      std::span<const double> external_accel, double h);
+/// writes the torques to hand the integrator to `out` (n values): by C-4 while ‖h²·G·K‖∞ <= 9,
+/// else by the eigenproblem. τ0 itself when an input is not finite, h not positive, or (beyond
+/// C-4's reach) G not positive definite. Allocates only for n > 8. (No Eigen type crosses this
+/// interface: callers may be built without the core's vector instructions.)
+void ConsistentTorques(std::span<const double> inverse_inertia, std::span<const double> stiffness,
+                       std::span<const double> torque, std::span<const double> external_accel,
+                       double h, std::span<double> out);
 
 }  // namespace mjstepper
 

@@ -99,8 +99,9 @@ TEST(Coupling, CoupledRotorsRingAtTheirModes) {
       const Eigen::VectorXd tau = -(k.asDiagonal() * theta).eval();
       const Eigen::Matrix<double, 2, 2, Eigen::RowMajor> rows = g;
       const std::vector<double> zero(2, 0.0);
-      const std::vector<double> out = ConsistentTorques(
-          std::span(rows.data(), 4), std::span(k.data(), 2), std::span(tau.data(), 2), zero, h);
+      std::vector<double> out(2);
+      ConsistentTorques(std::span(rows.data(), 4), std::span(k.data(), 2), std::span(tau.data(), 2),
+                        zero, h, out);
       const Eigen::Vector2d handed(out[0], out[1]);
       const Eigen::VectorXd v1 = v + h * g * handed;
       map.col(c) << theta + h * v1, v1;
@@ -119,14 +120,75 @@ TEST(Coupling, CoupledRotorsRingAtTheirModes) {
     std::sort(want.begin(), want.end());
     for (int i = 0; i < 4; ++i) EXPECT_NEAR(angles[i], want[i], 1e-9) << wh;
   }
-  // Two steppers on one joint make G singular (both rows the joint's): each keeps its τ0.
-  const std::vector<double> same = {1 / 3.6e-5, 1 / 3.6e-5, 1 / 3.6e-5, 1 / 3.6e-5};
-  const std::vector<double> k2 = {28.5, 28.5}, tau2 = {0.3, -0.1}, a2 = {-500, -500};
-  EXPECT_EQ(ConsistentTorques(same, k2, tau2, a2, 1e-3), tau2);
   // One rotor: C-3 is C-2.
   const std::vector<double> one = {1 / 3.6e-5}, k1 = {28.5}, tau1 = {0.3}, a1 = {-500};
-  EXPECT_NEAR(ConsistentTorques(one, k1, tau1, a1, 1e-3)[0],
-              ConsistentTorque(0.3, 28.5, 3.6e-5, -500, 1e-3), 1e-12);
+  std::vector<double> out1(1);
+  ConsistentTorques(one, k1, tau1, a1, 1e-3, out1);
+  EXPECT_NEAR(out1[0], ConsistentTorque(0.3, 28.5, 3.6e-5, -500, 1e-3), 1e-12);
+}
+
+// The two routes to C-3 (C-4's series while ‖h²·G·K‖∞ <= 9, the eigenproblem beyond) are one
+// function: on six coupled rotors (an arm-like G, stiffnesses of both signs) at steps on either
+// side of the switch, and with the series forced past its switch through a step just below and
+// just above it, the handed torques agree with σ(h²·A) formed from A's own eigenvectors.
+TEST(Coupling, SeriesAndEigenproblemAgree) {
+  constexpr int n = 6;
+  Eigen::MatrixXd r(n, n);  // moment rows of a random-ish, well-conditioned arm
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) r(i, j) = (i == j ? 3.0 : 0.0) + std::sin(1.7 * i + 0.9 * j);
+  }
+  const Eigen::MatrixXd g = r * r.transpose() * 2e4;  // 1/(kg·m²), positive definite
+  Eigen::VectorXd k(n), tau(n), a(n);
+  k << 13.5, 17.5, 9.0, -2.0, 11.0, 6.5;  // N·m/rad: one rotor past its pull-out angle
+  tau << 0.3, -0.1, 0.05, 0.2, -0.25, 0.12;
+  a << -500, 200, 40, -90, 10, 300;
+  // Reference: σ(h²·A)·a0 from A's eigendecomposition, then τ = G⁻¹·(σ·a0 − a_ext) (C-3).
+  const Eigen::EigenSolver<Eigen::MatrixXd> modes(g * k.asDiagonal());
+  const Eigen::MatrixXd g_rows = g;  // column-major; G is symmetric, so row-major reads the same
+  const std::vector<double> gv(g_rows.data(), g_rows.data() + n * n);
+  const std::vector<double> kv(k.data(), k.data() + n), tv(tau.data(), tau.data() + n),
+      av(a.data(), a.data() + n);
+  double largest = 0;  // 1/s²: the fastest mode's ω²
+  for (int i = 0; i < n; ++i) largest = std::max(largest, std::abs(modes.eigenvalues()(i).real()));
+  double norm = 0;  // ‖G·K‖∞
+  for (int i = 0; i < n; ++i)
+    norm = std::max(norm, (g.row(i).cwiseProduct(k.transpose())).cwiseAbs().sum());
+  // Steps whose ‖h²·G·K‖∞ is 0.04 (the rule's steps), 1, 8.9 and 9.1 (either side of the switch)
+  // and whose fastest ωh is 2.9 (eigenproblem only).
+  std::vector<double> steps;
+  for (double x : {0.04, 1.0, 8.9, 9.1}) steps.push_back(std::sqrt(x / norm));
+  steps.push_back(2.9 / std::sqrt(largest));
+  for (double h : steps) {
+    Eigen::VectorXcd sigma(n);
+    for (int i = 0; i < n; ++i) sigma(i) = StiffnessScale(h * h * modes.eigenvalues()(i).real());
+    const Eigen::MatrixXcd v = modes.eigenvectors();
+    const Eigen::VectorXd a0 = g * tau + a;
+    const Eigen::VectorXd scaled = (v * sigma.asDiagonal() * v.inverse() * a0).real();
+    const Eigen::VectorXd want = g.ldlt().solve(scaled - a);
+    std::vector<double> got(n);
+    ConsistentTorques(gv, kv, tv, av, h, got);
+    for (int i = 0; i < n; ++i) {
+      EXPECT_NEAR(got[i], want[i], 1e-9 * want.cwiseAbs().maxCoeff()) << "h = " << h << ", i " << i;
+      EXPECT_NE(got[i], tau(i));  // solved, not left at τ0
+    }
+  }
+}
+
+// Two steppers on one joint make G singular (both rows the joint's). C-4 hands the pair C-2 of
+// their joint (the sum of their torques is the joint's C-2 with the summed stiffness), shared in
+// proportion to their stiffnesses; beyond C-4's reach, where C-3 needs G⁻¹, each keeps its τ0.
+TEST(Coupling, TwoSteppersOnOneJoint) {
+  const double j = 3.6e-5;  // kg·m², the joint's inertia
+  const std::vector<double> same = {1 / j, 1 / j, 1 / j, 1 / j};
+  const std::vector<double> k2 = {28.5, 14.25}, tau2 = {0.3, -0.1}, a2 = {-500, -500};
+  std::vector<double> out(2);
+  const double h = 1e-3;  // h²·(k1 + k2)/J = 1.19
+  ConsistentTorques(same, k2, tau2, a2, h, out);
+  EXPECT_NEAR(out[0] + out[1], ConsistentTorque(0.2, 42.75, j, -500, h), 1e-12);
+  EXPECT_NEAR((out[0] - tau2[0]) / (out[1] - tau2[1]), 2.0, 1e-12);
+  const double coarse = 3e-3;  // h²·(k1 + k2)/J = 10.7: past the series' reach
+  ConsistentTorques(same, k2, tau2, a2, coarse, out);
+  EXPECT_EQ(out, tau2);
 }
 
 }  // namespace
