@@ -2,7 +2,9 @@
 # Instructions per simulated second (callgrind) of models/arm6.xml holding its standby pose: with
 # steppers at the arm's own 1 ms step, with steppers at the step the timestep rule asks for, and
 # models/arm6_servo.xml (MuJoCo's position servos) at 1 ms. Each is the difference of a 0.6 s and
-# a 0.1 s run of `mjstepper run`, so loading and the modes' computation cancel.
+# a 0.1 s run of `mjstepper run`, so loading and the modes' computation cancel. Then the plugin
+# alone (build/bench_step steps the models with no probe sensors, as a user's program would):
+# both arms at 1 ms and at the rule's step, 8 s and 4 s of simulated time.
 #   bash bench/arm_cost.sh [BUILD_DIR]
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -29,3 +31,19 @@ ruled=$(per_second "$work/arm6_rule.xml")
 printf 'arm6_servo.xml at 1 ms:            %12d instructions per simulated second\n' "$servo"
 printf 'arm6.xml steppers at 1 ms:         %12d (%.1f x)\n' "$own" "$(echo "$own / $servo" | bc -l)"
 printf 'arm6.xml steppers at %s s: %12d (%.1f x)\n' "$rule" "$ruled" "$(echo "$ruled / $servo" | bc -l)"
+bare() {  # STEPS MODEL [TIMESTEP]: instructions per simulated second of bench_step's 8 rounds
+  local ir h
+  ir=$(valgrind --tool=callgrind --callgrind-out-file="$work/cg" --collect-atstart=no \
+         --toggle-collect='*Round*' "$build/bench_step" "$1" "$2" "${3:-}" 2>&1 >/dev/null |
+       sed -n 's/.*Collected : //p')
+  awk -v ir="$ir" -v n="$1" -v h="${3:-1e-3}" 'BEGIN { printf "%d", ir / (8 * n * h) }'
+}
+servo_bare=$(bare 1000 arm6_servo)
+printf 'the plugin alone (bench_step):\n'
+printf 'arm6_servo.xml at 1 ms:            %12d instructions per simulated second\n' "$servo_bare"
+for args in "1000 arm6" "5000 arm6_servo $rule" "5000 arm6 $rule"; do
+  set -- $args
+  n=$(bare "$@")
+  printf '%-14s at %-9s s:         %12d (%.1f x)\n' "$2" "${3:-0.001}" "$n" \
+    "$(awk -v a="$n" -v b="$servo_bare" 'BEGIN { print a / b }')"
+done
