@@ -115,6 +115,32 @@ TEST(Size, TheActuatorsDampingIsCountedInTheCurveNotTheDemand) {
   EXPECT_NEAR(Mean(j.torque, j.time, 0.02, 0.08), kInertia * kAccel, 1e-9);
 }
 
+// A force-limited actuator applies at most its forcerange, and so does its bench: with the range
+// ±0.3 N·m the pull-out at rest is 0.3 N·m, not the motor's 0.59, plus what the load's ramp adds
+// while the clamped rotor drifts to the slip the bench counts: under a net torque growing at the
+// ramp's rate r the rotor covers a full step (2π/200 rad) in t = (6·J·θ/r)^(1/3) = 36 ms, in which
+// the load grows by r·t = 0.016 N·m (+5 %); 10 % allowed.
+TEST(Size, TheBenchKeepsTheActuatorsForceRange) {
+  std::ifstream in(kRotor);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string xml = text.str();
+  const std::string armature = R"(armature="8.2e-6")";
+  xml.replace(xml.find(armature), armature.size(),
+              armature + R"( forcelimited="true" forcerange="-0.3 0.3")");
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("size_limited_" + std::to_string(::getpid()) + ".xml");
+  std::ofstream(path) << xml;
+  SizeOptions o = Rotor();
+  o.run.model = path.string();
+  const SizeResult r = Size(o, std::cerr);
+  std::filesystem::remove(path);
+  const SizeJoint& j = r.joints[0];
+  std::printf("pull-out at rest with forcerange ±0.3 N·m: %.4f N·m\n", j.pullout.front().torque);
+  EXPECT_GE(j.pullout.front().torque, 0.3);
+  EXPECT_LT(j.pullout.front().torque, 0.33);
+}
+
 // Names with a comma or a quote stay one CSV field.
 TEST(Size, TheTableQuotesItsNames) {
   SizeResult r;
