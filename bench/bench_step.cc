@@ -2,7 +2,7 @@
 // the same drive ticking at 1 MHz) beside models/tsui_rigid_dcmotor.xml (the same load on MuJoCo's
 // dcmotor, inductance on, on a constant 3 V and on 3 V ± 5 %), in one run, same timestep. After a
 // warm-up, 7 interleaved rounds of 100000 steps each; the best round of each model is kept (the
-// least disturbed). Usage: bench_step [steps_per_round].
+// least disturbed). Usage: bench_step [steps_per_round [MODE [TIMESTEP]]] (MODE below).
 // For instruction counts, which this VM's drifting clock does not disturb:
 //   valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Round*'
 //       build/bench_step 20000 stepper    (or stepper1mhz, dcmotor, dcmotor_ripple):
@@ -43,11 +43,12 @@ Stepping Load(const std::string& path, double ctrl, const std::string& configs =
   if (!configs.empty()) xml.insert(xml.find("<config key=\"motor\""), configs);
   if (!timestep.empty()) {
     const std::string own = R"(timestep="1e-3")";
-    if (xml.find(own) == std::string::npos) {
+    const size_t at = xml.find(own);
+    if (at == std::string::npos) {
       fmt::print(stderr, "{}: no {} to replace\n", path, own);
       std::exit(1);
     }
-    xml.replace(xml.find(own), own.size(), fmt::format(R"(timestep="{}")", timestep));
+    xml.replace(at, own.size(), fmt::format(R"(timestep="{}")", timestep));
   }
   // Another drive (issue 17's chopper, SpreadCycle, StealthChop) in place of the PI loop, at the
   // same peak current (1.9 A): the model's own drive key removed, as MJCF keeps the first.

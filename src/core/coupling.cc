@@ -4,8 +4,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <numbers>
+#include <stdexcept>
 #include <vector>
 
 namespace mjstepper {
@@ -18,32 +20,35 @@ namespace {
 
 constexpr double kPiSquared = std::numbers::pi * std::numbers::pi;
 
-// C-4's series: φ(u) = Σⱼ cⱼ·u^j, cⱼ = 2·(−1)^(j+1)/(2j+4)!, for |u| (or ‖X‖∞) up to kSeriesReach.
+// C-4's series: φ(u) = Σⱼ cⱼ·u^j, cⱼ = 2·(−1)^(j+1)/(2j+4)!, for |u| (or ‖X‖∞) up to
+// kSeriesReach (< π²: no mode reaches C-1's hold). Constant-initialised: no static order to mind.
 constexpr int kSeriesTerms = 16;
-constexpr double kSeriesReach = 9.0;  // < π²: no mode reaches C-1's hold
-struct Series {
+constexpr double kSeriesReach = 9.0;
+constexpr std::array<double, kSeriesTerms> SeriesCoefficients() {
   std::array<double, kSeriesTerms> c{};
-  // reach[N]: the largest x for which N terms leave a first omitted term |c_N|·x^N below 1e-18
-  // (φ is about −1/12; the terms shrink by x/((2j+5)(2j+6)) <= 0.3 each beyond it).
-  std::array<double, kSeriesTerms + 1> reach{};
-  Series() {
-    double factorial = 24.0;  // (2j+4)! at j = 0
-    for (int j = 0; j < kSeriesTerms; ++j) {
-      c[j] = (j % 2 == 0 ? -2.0 : 2.0) / factorial;
-      factorial *= (2.0 * j + 5) * (2.0 * j + 6);
-    }
-    reach[0] = 0;
-    for (int n = 1; n < kSeriesTerms; ++n) reach[n] = std::pow(1e-18 / std::abs(c[n]), 1.0 / n);
-    reach[kSeriesTerms] = kSeriesReach;
+  double factorial = 24.0;  // (2j+4)! at j = 0
+  for (int j = 0; j < kSeriesTerms; ++j) {
+    c[j] = (j % 2 == 0 ? -2.0 : 2.0) / factorial;
+    factorial *= (2.0 * j + 5) * (2.0 * j + 6);
   }
-  // How many terms serve for arguments of magnitude up to x (<= kSeriesReach).
-  int Terms(double x) const {
-    int n = 1;
-    while (n < kSeriesTerms && x > reach[n]) ++n;
-    return n;
+  return c;
+}
+constexpr std::array<double, kSeriesTerms> kPhi = SeriesCoefficients();
+
+// How many terms of φ serve for arguments of magnitude up to x <= kSeriesReach: until the first
+// omitted one, |c_N|·x^N, is below 1e-18 (φ is about −1/12, and beyond it the terms shrink by
+// x/((2j+5)(2j+6)) <= 0.3 each, so the tail is below 1.5e-17 of φ). For a matrix X the powers
+// obey ‖X^N‖∞ <= ‖X‖∞^N, so the same count bounds the tail of φ(X)·a0 by that of ‖a0‖∞ however
+// far from normal X is. At most 13 terms at x = 9.
+int SeriesTerms(double x) {
+  int n = 1;
+  double power = x;  // x^n
+  while (n < kSeriesTerms && std::abs(kPhi[n]) * power > 1e-18) {
+    ++n;
+    power *= x;
   }
-};
-const Series kSeries;
+  return n;
+}
 
 }  // namespace
 
@@ -52,9 +57,9 @@ double StiffnessScale(double u) {
   if (u >= kPiSquared) return 3.96 / u;  // ωh >= π: just inside the stability limit (C-1)
   if (u < -kPiSquared) u = -kPiSquared;  // a falling rotor: at most its growth over |ω|h = π
   if (std::abs(u) <= kSeriesReach) {     // σ = 1 + u·φ(u), C-4's series
-    const int terms = kSeries.Terms(std::abs(u));
-    double phi = kSeries.c[terms - 1];
-    for (int j = terms - 2; j >= 0; --j) phi = phi * u + kSeries.c[j];
+    const int terms = SeriesTerms(std::abs(u));
+    double phi = kPhi[terms - 1];
+    for (int j = terms - 2; j >= 0; --j) phi = phi * u + kPhi[j];
     return 1.0 + u * phi;
   }
   const double root = std::sqrt(std::abs(u));
@@ -125,6 +130,10 @@ void ConsistentTorques(std::span<const double> inverse_inertia, std::span<const 
                        std::span<const double> torque, std::span<const double> external_accel,
                        double h, std::span<double> out) {
   const std::size_t n = torque.size();
+  if (out.size() < n || inverse_inertia.size() != n * n || stiffness.size() != n ||
+      external_accel.size() != n) {
+    throw std::invalid_argument("ConsistentTorques: G must be n×n and k, a_ext, out n long");
+  }
   std::copy(torque.begin(), torque.end(), out.begin());  // τ0 unless solved
   const auto finite = [](std::span<const double> x) {
     return std::all_of(x.begin(), x.end(), [](double v) { return std::isfinite(v); });
@@ -149,21 +158,24 @@ void ConsistentTorques(std::span<const double> inverse_inertia, std::span<const 
   for (std::size_t i = 0; i < n; ++i) {
     double row = 0, a = external_accel[i];
     for (std::size_t j = 0; j < n; ++j) {
-      const double g = 0.5 * (inverse_inertia[i * n + j] + inverse_inertia[j * n + i]);
+      const double g = 0.5 * inverse_inertia[i * n + j] + 0.5 * inverse_inertia[j * n + i];
       x[i * n + j] = h * h * g * stiffness[j];
       row += std::abs(x[i * n + j]);
       a += g * torque[j];
     }
-    a0[i] = a;  // G·τ0 + a_ext, rad/s²
-    norm = std::max(norm, row);
+    a0[i] = a;                       // G·τ0 + a_ext, rad/s²
+    if (!(row <= norm)) norm = row;  // NaN (an overflow of finite inputs) is kept
+  }
+  if (!std::isfinite(norm) || !std::all_of(a0, a0 + n, [](double v) { return std::isfinite(v); })) {
+    return;  // finite inputs whose products overflow: τ0
   }
   if (norm <= kSeriesReach) {
     // φ(X)·a0 by Horner's rule: p ← X·p + cⱼ·a0, from the last term down.
-    const int terms = kSeries.Terms(norm);
-    for (std::size_t i = 0; i < n; ++i) phi_a0[i] = kSeries.c[terms - 1] * a0[i];
+    const int terms = SeriesTerms(norm);
+    for (std::size_t i = 0; i < n; ++i) phi_a0[i] = kPhi[terms - 1] * a0[i];
     for (int t = terms - 2; t >= 0; --t) {
       for (std::size_t i = 0; i < n; ++i) {
-        double sum = kSeries.c[t] * a0[i];
+        double sum = kPhi[t] * a0[i];
         for (std::size_t j = 0; j < n; ++j) sum += x[i * n + j] * phi_a0[j];
         next[i] = sum;
       }

@@ -35,13 +35,15 @@
 //
 // With φ(u) = (σ(u) − 1)/u, so that σ(X) = I + X·φ(X) for X = h²·A, C-3 needs no G⁻¹:
 //     τ = τ0 + h²·K·φ(X)·(G·τ0 + a_ext),   φ(u) = Σⱼ 2·(−1)^(j+1)·u^j/(2j+4)!     (C-4)
-// (φ = −1/12 + u/360 − u²/20160 + …). Every eigenvalue of X lies within ‖X‖∞, so while
-// ‖X‖∞ <= 9 (< π², where C-1 is not held) the series converges to round-off in at most 16 terms,
-// each a matrix-vector product: a handful at the steps the timestep rule recommends (‖X‖∞ about
-// 0.04), where the eigenproblem cost some 20 000 instructions for an arm's six steppers. Beyond
-// it C-3 goes by the eigenproblem. C-4 also holds where G is singular (two steppers on one
-// joint: the pair is handed C-2 of their joint, shared in proportion to their stiffnesses),
-// which the eigenproblem's route leaves at τ0.
+// (φ = −1/12 + u/360 − u²/20160 + …). While ‖X‖∞ <= 9 every eigenvalue of X lies below π²
+// (where C-1 is not held), and since ‖X^j‖∞ <= ‖X‖∞^j the series' tail is bounded whatever the
+// shape of X: at most 13 terms reach round-off, each a matrix-vector product: a handful at the
+// steps the timestep rule recommends (‖X‖∞ about 0.04), where the eigenproblem cost some 20 000
+// instructions for an arm's six steppers. Beyond it C-3 goes by the eigenproblem. C-4 also holds
+// where G is singular (two steppers on one joint: the pair is handed C-2 of their joint, shared in
+// proportion to their stiffnesses), which the eigenproblem's route leaves at τ0: for such a G
+// (singular, or its Cholesky pivots spread by more than 1e9) the handed torques change from C-4 to
+// τ0 where ‖X‖∞ passes 9.
 #ifndef MJSTEPPER_CORE_COUPLING_H_
 #define MJSTEPPER_CORE_COUPLING_H_
 
@@ -74,8 +76,9 @@ double ConsistentTorque(double torque, double stiffness, double inertia, double 
 /// C-3 for n coupled steppers: G (1/(kg·m²), n×n, row-major), their stiffnesses k (N·m/rad),
 /// torques at the step's start τ0 (N·m) and the other forces' rotor accelerations a_ext (rad/s²);
 /// writes the torques to hand the integrator to `out` (n values): by C-4 while ‖h²·G·K‖∞ <= 9,
-/// else by the eigenproblem. τ0 itself when an input is not finite, h not positive, or (beyond
-/// C-4's reach) G not positive definite. Allocates only for n > 8. (No Eigen type crosses this
+/// else by the eigenproblem. τ0 itself when an input is not finite (or their products overflow),
+/// h not positive, or (beyond C-4's reach) G not positive definite. Throws std::invalid_argument
+/// when the spans' sizes disagree. Allocates only for n > 8. (No Eigen type crosses this
 /// interface: callers may be built without the core's vector instructions.)
 void ConsistentTorques(std::span<const double> inverse_inertia, std::span<const double> stiffness,
                        std::span<const double> torque, std::span<const double> external_accel,

@@ -9,6 +9,7 @@
 #include <complex>
 #include <numbers>
 #include <span>
+#include <stdexcept>
 #include <vector>
 
 namespace mjstepper {
@@ -47,11 +48,12 @@ TEST(Coupling, RingsAtTheOwnFrequency) {
   EXPECT_GT(DiscreteFrequency(k, J, 1 / omega, Coupling::kExplicit) / omega, 1.04);
 }
 
-// C-1's σ: its series and closed forms meet; negative stiffness grows as cosh; beyond ωh = π the
-// spring is held just inside Euler's stability limit σ·u < 4.
+// C-1's σ: its series (C-4's, for |u| <= 9) and closed forms meet, near zero and either side of
+// the switch at |u| = 9; negative stiffness grows as cosh; beyond ωh = π the spring is held just
+// inside Euler's stability limit σ·u < 4.
 TEST(Coupling, StiffnessScale) {
   EXPECT_EQ(StiffnessScale(0), 1.0);
-  for (double u : {0.99e-4, 1.01e-4, -0.99e-4, -1.01e-4}) {
+  for (double u : {0.99e-4, 1.01e-4, -0.99e-4, -1.01e-4, 0.5, -3.0, 8.999, 9.001, -8.999, -9.001}) {
     const double r = std::sqrt(std::abs(u));
     // 2·(1 − cos r)/u written as 4·sin²(r/2)/u, free of cancellation
     const double half = u > 0 ? std::sin(r / 2) : std::sinh(r / 2);
@@ -128,9 +130,10 @@ TEST(Coupling, CoupledRotorsRingAtTheirModes) {
 }
 
 // The two routes to C-3 (C-4's series while ‖h²·G·K‖∞ <= 9, the eigenproblem beyond) are one
-// function: on six coupled rotors (an arm-like G, stiffnesses of both signs) at steps on either
-// side of the switch, and with the series forced past its switch through a step just below and
-// just above it, the handed torques agree with σ(h²·A) formed from A's own eigenvectors.
+// function: on six coupled rotors (an arm-like G, stiffnesses of both signs) at steps whose
+// ‖h²·G·K‖∞ is 0.04, 1 and 8.9 (series) and 9.1 and 11 (eigenproblem), the handed torques agree
+// with σ(h²·A) formed from A's own eigenvectors (to 1e-9: that reference's own round-off is about
+// 1e-11).
 TEST(Coupling, SeriesAndEigenproblemAgree) {
   constexpr int n = 6;
   Eigen::MatrixXd r(n, n);  // moment rows of a random-ish, well-conditioned arm
@@ -172,6 +175,31 @@ TEST(Coupling, SeriesAndEigenproblemAgree) {
       EXPECT_NE(got[i], tau(i));  // solved, not left at τ0
     }
   }
+}
+
+// Uncoupled rotors (G diagonal): C-3 is C-2 on each (in closed form), whichever route serves, to
+// round-off. The
+// stiffnesses are spread so that at the coarsest step one rotor is past ωh = π, where C-1 holds
+// σ·u at 3.96 (the series, continued there, would not).
+TEST(Coupling, UncoupledRotorsGetTheirOwnConsistentTorque) {
+  constexpr double kPiSquared = std::numbers::pi * std::numbers::pi;
+  const std::vector<double> inertia = {3.6e-5, 1e-4, 2e-5};  // kg·m²
+  const std::vector<double> g = {1 / inertia[0], 0, 0, 0, 1 / inertia[1], 0, 0, 0, 1 / inertia[2]};
+  const std::vector<double> k = {28.5, 5.0, -3.0}, tau = {0.3, -0.1, 0.05}, a = {-500, 40, 900};
+  for (double h : {1e-5, 3e-4, 1e-3, 2.2e-3, 3.3e-3, 4e-3}) {  // ‖X‖∞ = h²·28.5/3.6e-5: to 12.7
+    std::vector<double> out(3);
+    ConsistentTorques(g, k, tau, a, h, out);
+    for (int i = 0; i < 3; ++i) {
+      // C-1 and C-2 in closed form (sin, sinh, the hold), not through StiffnessScale's series.
+      const double u = k[i] * h * h / inertia[i], r = std::sqrt(std::abs(u));
+      const double half = u > 0 ? std::sin(r / 2) : std::sinh(r / 2);
+      const double sigma = u >= kPiSquared ? 3.96 / u : 4 * half * half / std::abs(u);
+      const double want = sigma * tau[i] + (sigma - 1) * inertia[i] * a[i];
+      EXPECT_NEAR(out[i], want, 1e-14 * (std::abs(tau[i]) + inertia[i] * std::abs(a[i]))) << h;
+    }
+  }
+  std::vector<double> out(2);
+  EXPECT_THROW(ConsistentTorques(g, k, tau, a, 1e-3, out), std::invalid_argument);  // out too short
 }
 
 // Two steppers on one joint make G singular (both rows the joint's). C-4 hands the pair C-2 of

@@ -16,6 +16,7 @@
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 
 #include "runner.h"
@@ -50,6 +51,31 @@ double Mean(const std::vector<double>& v, const std::vector<double>& t, double f
     if (t[k] >= from && t[k] <= to) sum += v[k], ++n;
   }
   return sum / n;
+}
+
+// Size() on a copy of the rotor model with `attributes` added to its actuator (after the
+// armature); the copy is removed however Size() ends.
+SizeResult SizeWithAttributes(const std::string& attributes) {
+  std::ifstream in(kRotor);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string xml = text.str();
+  const std::string armature = R"(armature="8.2e-6")";
+  const size_t at = xml.find(armature);
+  if (at == std::string::npos) throw std::logic_error(kRotor + ": no " + armature);
+  xml.insert(at + armature.size(), attributes);
+  struct Copy {
+    std::filesystem::path path;
+    ~Copy() {
+      std::error_code ignored;
+      std::filesystem::remove(path, ignored);
+    }
+  } copy{std::filesystem::temp_directory_path() /
+         ("size_rotor_" + std::to_string(::getpid()) + ".xml")};
+  std::ofstream(copy.path) << xml;
+  SizeOptions o = Rotor();
+  o.run.model = copy.path.string();
+  return Size(o, std::cerr);
 }
 
 TEST(Size, DemandIsInertiaTimesAccelerationAndPullOutAtRestIsTheHoldingTorque) {
@@ -98,19 +124,7 @@ TEST(Size, DemandIsInertiaTimesAccelerationAndPullOutAtRestIsTheHoldingTorque) {
 // demand leaves it out: with B = 0.01 N·m·s/rad (0.1 N·m at 10 rad/s, five times J·A) the demand
 // while accelerating is still J·A.
 TEST(Size, TheActuatorsDampingIsCountedInTheCurveNotTheDemand) {
-  std::ifstream in(kRotor);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string xml = text.str();
-  const std::string armature = R"(armature="8.2e-6")";
-  xml.replace(xml.find(armature), armature.size(), armature + R"( damping="0.01")");
-  const auto path = std::filesystem::temp_directory_path() /
-                    ("size_damped_" + std::to_string(::getpid()) + ".xml");
-  std::ofstream(path) << xml;
-  SizeOptions o = Rotor();
-  o.run.model = path.string();
-  const SizeResult r = Size(o, std::cerr);
-  std::filesystem::remove(path);
+  const SizeResult r = SizeWithAttributes(R"( damping="0.01")");
   const SizeJoint& j = r.joints[0];
   EXPECT_NEAR(Mean(j.torque, j.time, 0.02, 0.08), kInertia * kAccel, 1e-9);
 }
@@ -121,20 +135,7 @@ TEST(Size, TheActuatorsDampingIsCountedInTheCurveNotTheDemand) {
 // ramp's rate r the rotor covers a full step (2π/200 rad) in t = (6·J·θ/r)^(1/3) = 36 ms, in which
 // the load grows by r·t = 0.016 N·m (+5 %); 10 % allowed.
 TEST(Size, TheBenchKeepsTheActuatorsForceRange) {
-  std::ifstream in(kRotor);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string xml = text.str();
-  const std::string armature = R"(armature="8.2e-6")";
-  xml.replace(xml.find(armature), armature.size(),
-              armature + R"( forcelimited="true" forcerange="-0.3 0.3")");
-  const auto path = std::filesystem::temp_directory_path() /
-                    ("size_limited_" + std::to_string(::getpid()) + ".xml");
-  std::ofstream(path) << xml;
-  SizeOptions o = Rotor();
-  o.run.model = path.string();
-  const SizeResult r = Size(o, std::cerr);
-  std::filesystem::remove(path);
+  const SizeResult r = SizeWithAttributes(R"( forcelimited="true" forcerange="-0.3 0.3")");
   const SizeJoint& j = r.joints[0];
   std::printf("pull-out at rest with forcerange ±0.3 N·m: %.4f N·m\n", j.pullout.front().torque);
   EXPECT_GE(j.pullout.front().torque, 0.3);
