@@ -373,6 +373,13 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
                                  .slot = static_cast<int>(slot),
                                  .output = m->actuator_outadr[j]});
   }
+  for (int j = 0; j < m->njnt; ++j) {
+    if (!m->jnt_actgravcomp[j]) continue;
+    const int dofs = m->jnt_type[j] == mjJNT_FREE ? 6 : m->jnt_type[j] == mjJNT_BALL ? 3 : 1;
+    for (int v = m->jnt_dofadr[j]; v < m->jnt_dofadr[j] + dofs; ++v) {
+      stepper->gravcomp_dofs_.push_back(v);
+    }
+  }
   return stepper;
 }
 
@@ -543,13 +550,7 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
       }
     }
   }
-  for (int j = 0; j < m->njnt; ++j) {  // gravity compensation counted with the actuators
-    if (!m->jnt_actgravcomp[j]) continue;
-    const int dofs = m->jnt_type[j] == mjJNT_FREE ? 6 : m->jnt_type[j] == mjJNT_BALL ? 3 : 1;
-    for (int v = m->jnt_dofadr[j]; v < m->jnt_dofadr[j] + dofs; ++v) {
-      force[v] += d->qfrc_gravcomp[v];
-    }
-  }
+  for (int v : gravcomp_dofs_) force[v] += d->qfrc_gravcomp[v];  // counted with the actuators
   for (int i = 0; i < n; ++i) external[i] = mju_dot(rows + i * nv, force, nv);  // (M⁻¹·rᵢᵀ)·F
   const double h = m->opt.timestep;
   for (int i = 0; i < n; ++i) d->actuator_force[outputs[i]] = torque[i];  // τ0 unless solved

@@ -135,6 +135,9 @@ class Stepper {
     int output = 0;     // its output (moment row, actuator_force)
   };
   std::vector<CoupledActuator> coupled_;
+  // The dofs whose gravity compensation the actuators apply (jnt_actgravcomp), found at load:
+  // C-3 counts it among the other forces.
+  std::vector<int> gravcomp_dofs_;
   // The causes (bit 1 << Cause) already reported by this instance on this mjData: a diagnostic,
   // not simulation state.
   mutable std::atomic<unsigned> warned_{0};

@@ -15,6 +15,7 @@
 #include <nanobind/stl/vector.h>
 
 #include <cmath>
+#include <initializer_list>
 #include <iostream>
 #include <span>
 #include <sstream>
@@ -134,6 +135,18 @@ nb::list Floats(const std::vector<double>& v) {
   return out;
 }
 
+// Columns of per-sample vectors (a trace's, a demand's): (name, unit, values) each.
+struct SampleColumn {
+  const char* name;
+  const char* unit;
+  const std::vector<double>* values;
+};
+nb::list SampleColumns(std::initializer_list<SampleColumn> columns) {
+  nb::list out;
+  for (const SampleColumn& c : columns) out.append(PyColumn(c.name, c.unit, Floats(*c.values)));
+  return out;
+}
+
 // A map's parameter's unit: stiffness of a hinge (N·m/rad) or slide (N/m) joint, or a mass.
 const char* ParameterUnit(const std::string& parameter) {
   return parameter.starts_with("mass:") ? "kg" : "N·m/rad or N/m";
@@ -173,15 +186,14 @@ nb::dict ToPython(const Command& c, const Result& result) {
           nb::dict traces;
           for (size_t i = 0; i < r.traces.size() && i < r.steppers.size(); ++i) {
             const StepperTrace& t = r.traces[i];
-            nb::list columns;
-            columns.append(PyColumn("time", "s", Floats(t.time)));
-            columns.append(PyColumn("omega_cmd", "rad/s", Floats(t.omega_cmd)));
-            columns.append(PyColumn("velocity_error", "rad/s", Floats(t.velocity_error)));
-            columns.append(PyColumn("current_a", "A", Floats(t.current_a)));
-            columns.append(PyColumn("load_angle", "electrical rad", Floats(t.load_angle)));
-            columns.append(PyColumn("torque", "N·m", Floats(t.torque)));
-            columns.append(PyColumn("winding_temperature", "°C", Floats(t.winding_temperature)));
-            traces[nb::str(r.steppers[i].name.c_str())] = columns;
+            traces[nb::str(r.steppers[i].name.c_str())] =
+                SampleColumns({{"time", "s", &t.time},
+                               {"omega_cmd", "rad/s", &t.omega_cmd},
+                               {"velocity_error", "rad/s", &t.velocity_error},
+                               {"current_a", "A", &t.current_a},
+                               {"load_angle", "electrical rad", &t.load_angle},
+                               {"torque", "N·m", &t.torque},
+                               {"winding_temperature", "°C", &t.winding_temperature}});
           }
           out["traces"] = traces;
           out["steps"] = r.steps;
@@ -203,13 +215,12 @@ nb::dict ToPython(const Command& c, const Result& result) {
           out["table"] = table;
           nb::dict demands, curves;
           for (const SizeJoint& j : r.joints) {
-            nb::list columns;
-            columns.append(PyColumn("time", "s", Floats(j.time)));
-            columns.append(PyColumn("speed", "rad/s", Floats(j.speed)));
-            columns.append(PyColumn("torque", "N·m", Floats(j.torque)));
-            columns.append(PyColumn("motor_speed", "rad/s", Floats(j.motor_speed)));
-            columns.append(PyColumn("motor_torque", "N·m", Floats(j.motor_torque)));
-            demands[nb::str(j.name.c_str())] = columns;
+            demands[nb::str(j.name.c_str())] =
+                SampleColumns({{"time", "s", &j.time},
+                               {"speed", "rad/s", &j.speed},
+                               {"torque", "N·m", &j.torque},
+                               {"motor_speed", "rad/s", &j.motor_speed},
+                               {"motor_torque", "N·m", &j.motor_torque}});
             curves[nb::str(j.name.c_str())] =
                 Columns(kPullOutColumns, std::span<const PullOutPoint>(j.pullout));
           }

@@ -28,6 +28,12 @@ CLI::Validator InRange(const char* name) {
       fmt::format("in [{:g}, {:g}] {}", r.lo, r.hi, r.unit), name);
 }
 
+// `--NAME`, checked by InRange(NAME): the option's name and its range's key are one string.
+template <class T>
+CLI::Option* AddBounded(CLI::App* app, const char* name, T& value, const std::string& help) {
+  return app->add_option(fmt::format("--{}", name), value, help)->check(InRange(name));
+}
+
 const char* kSetHelp =
     "ACTUATOR.KEY=VALUE: change a stepper's <config> for this run, e.g. shaft.damping=all or "
     "shaft.drive=servo (repeatable)";
@@ -41,9 +47,7 @@ CommandLine::CommandLine(bool out_optional)
 
   run_ = app_.add_subcommand("run", "step a model with command profiles, log to CSV");
   run_->add_option("model", c.run.model, "MJCF model")->required()->check(CLI::ExistingFile);
-  run_->add_option("--duration", c.run.duration, "simulated time, s")
-      ->required()
-      ->check(InRange("duration"));
+  AddBounded(run_, "duration", c.run.duration, "simulated time, s")->required();
   run_->add_option("--ctrl", ctrl_,
                    "ACTUATOR=PROFILE, e.g. 'shaft=ramp(0rpm,200rpm,0.8s)'; profiles: constant(X), "
                    "ramp(A,B,T), trapezoid(V,Ta,Tc,Td), targets(A0,A1@T1,…) (angle targets for "
@@ -64,20 +68,15 @@ CommandLine::CommandLine(bool out_optional)
                    "named camera of the model (default: the free camera)");
   run_->add_option("--size", size_, "frame size WxH, each in [16, 8192] pixels")
       ->default_val(size_);
-  run_->add_option("--fps", c.run.render.fps, "video frames per second")
-      ->default_val(30)
-      ->check(InRange("fps"));
-  run_->add_option("--playback", c.run.render.playback,
-                   "simulated seconds per video second (0.1: ten times slower)")
-      ->default_val(1.0)
-      ->check(InRange("playback"));
+  AddBounded(run_, "fps", c.run.render.fps, "video frames per second")->default_val(30);
+  AddBounded(run_, "playback", c.run.render.playback,
+             "simulated seconds per video second (0.1: ten times slower)")
+      ->default_val(1.0);
   run_->add_option("--overlay", c.run.render.overlay_steppers,
                    "stepper whose plots are drawn (repeat for more; default: every stepper)");
   run_->add_flag("--no-overlay", no_overlay_, "no plots or text on the frames");
   run_->add_option("--plot", c.run_plot, "PNG plot of the run (needs --log)");
-  run_->add_option("--log-every", c.run.log_every, "log one row every N steps")
-      ->default_val(1)
-      ->check(InRange("log-every"));
+  AddBounded(run_, "log-every", c.run.log_every, "log one row every N steps")->default_val(1);
   run_->add_flag("--quiet", quiet_, "no progress line");
   run_->add_option("--set", sets_, kSetHelp);
   run_->add_option("--keyframe", c.run.keyframe,
@@ -114,16 +113,13 @@ CommandLine::CommandLine(bool out_optional)
     sub->add_option("--out", c.out, "output prefix: writes PREFIX.csv and PREFIX.png")
         ->required(!out_optional);
     if (sub != pullout_) {
-      sub->add_option("--settle", so->settle, "s after reaching speed before measuring")
-          ->default_val(so->settle)
-          ->check(InRange("settle"));
-      sub->add_option("--measure", so->measure,
-                      "s measured at each speed (at least 100 timesteps of the model)")
-          ->default_val(so->measure)
-          ->check(InRange("measure"));
+      AddBounded(sub, "settle", so->settle, "s after reaching speed before measuring")
+          ->default_val(so->settle);
+      AddBounded(sub, "measure", so->measure,
+                 "s measured at each speed (at least 100 timesteps of the model)")
+          ->default_val(so->measure);
     }
-    sub->add_option("--threads", *threads, "worker threads (default: one per core)")
-        ->check(InRange("threads"));
+    AddBounded(sub, "threads", *threads, "worker threads (default: one per core)");
     sub->add_option("--set", sets_, kSetHelp);
     sub->add_flag("--quiet", quiet_, "no progress line");
   }
@@ -132,12 +128,10 @@ CommandLine::CommandLine(bool out_optional)
                    "each in [0, 1e12]) or mass:BODY=a,b,c (kg, each in [1e-9, 1e6], inertia "
                    "scaled with it)")
       ->required();
-  pullout_->add_option("--rate", c.pullout.rate, "N·m/s: how fast the load torque rises")
-      ->default_val(c.pullout.rate)
-      ->check(InRange("rate"));
-  pullout_->add_option("--max-torque", c.pullout.max_torque, "N·m: stop a run that holds this")
-      ->default_val(c.pullout.max_torque)
-      ->check(InRange("max-torque"));
+  AddBounded(pullout_, "rate", c.pullout.rate, "N·m/s: how fast the load torque rises")
+      ->default_val(c.pullout.rate);
+  AddBounded(pullout_, "max-torque", c.pullout.max_torque, "N·m: stop a run that holds this")
+      ->default_val(c.pullout.max_torque);
 
   identify_ = app_.add_subcommand(
       "identify", "estimate detent harmonics and static friction from constant-speed runs");
@@ -150,9 +144,8 @@ CommandLine::CommandLine(bool out_optional)
   c.speeds_text = "10,30rpm";
   identify_->add_option("--speeds", c.speeds_text, "two or more speeds, e.g. 10,30rpm")
       ->default_val(c.speeds_text);
-  identify_->add_option("--orders", c.identify.orders, "harmonic orders to fit, each once")
-      ->default_val(std::vector<int>{4, 2, 1})
-      ->check(InRange("orders"));
+  AddBounded(identify_, "orders", c.identify.orders, "harmonic orders to fit, each once")
+      ->default_val(std::vector<int>{4, 2, 1});
 
   resonance_ = app_.add_subcommand(
       "resonance-test",
@@ -168,29 +161,21 @@ CommandLine::CommandLine(bool out_optional)
                    "output prefix: PREFIX_raw.csv (Klipper's raw accelerometer format), "
                    "PREFIX_psd.csv, PREFIX.png")
       ->required();
-  resonance_->add_option("--min-freq", c.resonance.test.min_freq, "Hz (Klipper's default 5)")
-      ->check(InRange("min-freq"));
-  resonance_->add_option("--max-freq", c.resonance.test.max_freq, "Hz (Klipper's 133.33)")
-      ->check(InRange("max-freq"));
-  resonance_->add_option("--accel-per-hz", accel_per_hz_, "mm/s² per Hz (Klipper's 75)")
-      ->check(InRange("accel-per-hz"));
-  resonance_->add_option("--hz-per-sec", c.resonance.test.hz_per_sec, "Hz/s (Klipper's 1)")
-      ->check(InRange("hz-per-sec"));
+  AddBounded(resonance_, "min-freq", c.resonance.test.min_freq, "Hz (Klipper's default 5)");
+  AddBounded(resonance_, "max-freq", c.resonance.test.max_freq, "Hz (Klipper's 133.33)");
+  AddBounded(resonance_, "accel-per-hz", accel_per_hz_, "mm/s² per Hz (Klipper's 75)");
+  AddBounded(resonance_, "hz-per-sec", c.resonance.test.hz_per_sec, "Hz/s (Klipper's 1)");
   resonance_
       ->add_option("--accelerometer", c.resonance.accelerometer,
                    "the toolhead's accelerometer sensor")
       ->default_val("toolhead_accel");
-  resonance_
-      ->add_option("--accel-rate", c.resonance.adxl.rate,
-                   "Hz, the ADXL345's output data rate (3200)")
-      ->check(InRange("accel-rate"));
+  AddBounded(resonance_, "accel-rate", c.resonance.adxl.rate,
+             "Hz, the ADXL345's output data rate (3200)");
   resonance_->add_option("--accel-range", accel_range_, "g, the ADXL345's range (±2, 4, 8, 16)")
       ->check(CLI::IsMember({2, 4, 8, 16}));
-  resonance_
-      ->add_option("--accel-noise", accel_noise_,
-                   "µg/√Hz, the ADXL345's noise density on X and Y (data sheet: 290; Z at "
-                   "430/290 of it; 0: none)")
-      ->check(InRange("accel-noise"));
+  AddBounded(resonance_, "accel-noise", accel_noise_,
+             "µg/√Hz, the ADXL345's noise density on X and Y (data sheet: 290; Z at "
+             "430/290 of it; 0: none)");
   resonance_->add_option("--seed", c.resonance.adxl.seed, "the accelerometer noise's seed");
   resonance_->add_option("--set", sets_, kSetHelp);
   resonance_->add_flag("--quiet", quiet_, "no progress line");
@@ -215,22 +200,17 @@ CommandLine::CommandLine(bool out_optional)
     sub->add_option("--accel", move_accels_,
                     "ACTUATOR=ACCELERATION: the joint's acceleration (deg/s², rad/s²; mm/s², "
                     "m/s²), set as its drive's profile_accel (default: the drive's own)");
-    sub->add_option("--dwell", c.size.dwell, "s at each pose")
-        ->default_val(c.size.dwell)
-        ->check(InRange("dwell"));
-    sub->add_option("--cycles", c.size.cycles, "N: the winding's temperature after N cycles")
-        ->default_val(c.size.cycles)
-        ->check(InRange("cycles"));
-    sub->add_option("--pullout-points", c.size.pullout_points,
-                    "speeds of each joint's pull-out curve (0 to 1.15 × its top speed)")
-        ->default_val(c.size.pullout_points)
-        ->check(InRange("pullout-points"));
+    AddBounded(sub, "dwell", c.size.dwell, "s at each pose")->default_val(c.size.dwell);
+    AddBounded(sub, "cycles", c.size.cycles, "N: the winding's temperature after N cycles")
+        ->default_val(c.size.cycles);
+    AddBounded(sub, "pullout-points", c.size.pullout_points,
+               "speeds of each joint's pull-out curve (0 to 1.15 × its top speed)")
+        ->default_val(c.size.pullout_points);
     sub->add_option("--out", c.out,
                     "output prefix: PREFIX.csv (the table), and per joint PREFIX_JOINT.png, "
                     "PREFIX_JOINT_demand.csv, PREFIX_JOINT_pullout.csv")
         ->required(!out_optional);
-    sub->add_option("--threads", c.size.threads, "pull-out workers (default: one per core)")
-        ->check(InRange("threads"));
+    AddBounded(sub, "threads", c.size.threads, "pull-out workers (default: one per core)");
     sub->add_option("--set", sets_, kSetHelp);
     sub->add_option("--mass", masses_, "BODY=KG: a body's mass, e.g. payload=0.5 (repeatable)");
     sub->add_option("--keyframe", run.keyframe, "start (and end) each cycle at this keyframe");
@@ -240,12 +220,9 @@ CommandLine::CommandLine(bool out_optional)
     sub->add_option("--render", run.render.video, "MP4 video of the cycle (ffmpeg)");
     sub->add_option("--camera", run.render.renderer.camera, "named camera of the model");
     sub->add_option("--size", size_, "frame size WxH")->default_val(size_);
-    sub->add_option("--fps", run.render.fps, "video frames per second")
-        ->default_val(30)
-        ->check(InRange("fps"));
-    sub->add_option("--playback", run.render.playback, "simulated seconds per video second")
-        ->default_val(1.0)
-        ->check(InRange("playback"));
+    AddBounded(sub, "fps", run.render.fps, "video frames per second")->default_val(30);
+    AddBounded(sub, "playback", run.render.playback, "simulated seconds per video second")
+        ->default_val(1.0);
     sub->add_flag("--quiet", quiet_, "no progress line");
   }
 
