@@ -373,6 +373,13 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
                                  .slot = static_cast<int>(slot),
                                  .output = m->actuator_outadr[j]});
   }
+  // The solve's scratch, in the instance that solves (the first of coupled_), sized here so that
+  // no step allocates: τ0 and k, R, F, G, a_ext and the handed torques at their largest (n = na).
+  const long na = static_cast<long>(stepper->coupled_.size());
+  if (na > 0 && stepper->coupled_.front().instance == instance) {
+    stepper->scratch_outputs_.resize(na);
+    stepper->scratch_.resize(3 * na + na * m->nv + m->nv + na * na + na);
+  }
   for (int j = 0; j < m->njnt; ++j) {
     if (!m->jnt_actgravcomp[j]) continue;
     const int dofs = m->jnt_type[j] == mjJNT_FREE ? 6 : m->jnt_type[j] == mjJNT_BALL ? 3 : 1;
@@ -478,16 +485,8 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
   // (checked at load); moment rows, actuator_force and actuator_velocity are per output.
   const int na = static_cast<int>(coupled_.size());  // at most this many rows
   const int nv = m->nv;
-  // Scratch on the C++ stack when it fits (a model's few steppers), else on MuJoCo's: 2·na + R,
-  // F, G, a_ext and the handed torques below at their largest (n = na).
-  constexpr int kLocalInts = 32, kLocalNums = 640;
-  const long need = 3L * na + static_cast<long>(na) * nv + nv + static_cast<long>(na) * na + na;
-  const bool local = na <= kLocalInts && need <= kLocalNums;
-  int local_ints[kLocalInts];
-  mjtNum local_nums[kLocalNums];
-  if (!local) mj_markStack(d);
-  int* outputs = local ? local_ints : mj_stackAllocInt(d, na);      // the started ones' outputs
-  mjtNum* torque = local ? local_nums : mj_stackAllocNum(d, need);  // τ0 (N·m), then k (N·m/rad)
+  int* outputs = scratch_outputs_.data();  // the started ones' outputs
+  mjtNum* torque = scratch_.data();        // τ0 (N·m), then k (N·m/rad)
   mjtNum* stiffness = torque + na;
   int n = 0;
   for (const CoupledActuator& c : coupled_) {
@@ -499,10 +498,7 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
     std::tie(torque[n], stiffness[n]) = s.drive_->StoredTorqueAndStiffness(values, theta);
     ++n;
   }
-  if (n == 0) {
-    if (!local) mj_freeStack(d);
-    return;
-  }
+  if (n == 0) return;
   auto row_of = [d](int output) {
     const int begin = d->moment_rowadr[output];
     return std::pair{begin, begin + d->moment_rownnz[output]};
@@ -567,7 +563,6 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
     } catch (...) {
     }
   }
-  if (!local) mj_freeStack(d);
 }
 
 bool Stepper::WarnOnce(unsigned cause, const std::string& message) const {

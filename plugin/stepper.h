@@ -135,6 +135,10 @@ class Stepper {
     int output = 0;     // its output (moment row, actuator_force)
   };
   std::vector<CoupledActuator> coupled_;
+  // ConsistentForces' scratch, sized at load in the instance that solves (this mjData's own
+  // instance, so no other thread shares it; not simulation state: every step overwrites it).
+  mutable std::vector<double> scratch_;
+  mutable std::vector<int> scratch_outputs_;
   // The dofs whose gravity compensation the actuators apply (jnt_actgravcomp), found at load:
   // C-3 counts it among the other forces.
   std::vector<int> gravcomp_dofs_;
