@@ -4,7 +4,8 @@
 # models/arm6_servo.xml (MuJoCo's position servos) at 1 ms. Each is the difference of a 0.6 s and
 # a 0.1 s run of `mjstepper run`, so loading and the modes' computation cancel. Then the plugin
 # alone (build/bench_step steps the models with no probe sensors, as a user's program would):
-# both arms at 1 ms and at the rule's step, 8 s and 4 s of simulated time.
+# both arms at 1 ms and at the rule's step, 8 s and 4 s of simulated time; the stepper arm with
+# ideal current sources at 1 ms, and at 100 µs (two whole interrupt periods, beside the rule's step).
 #   bash bench/arm_cost.sh [BUILD_DIR]
 set -euo pipefail
 shopt -s inherit_errexit  # a failing command inside $(...) stops the script too
@@ -54,3 +55,5 @@ show() {  # STEPS MODEL [TIMESTEP]
 show 1000 arm6
 show 5000 arm6_servo "$rule"
 show 5000 arm6 "$rule"
+show 1000 arm6_ideal
+show 5000 arm6 1e-4

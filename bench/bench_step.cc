@@ -6,8 +6,8 @@
 // For instruction counts, which this VM's drifting clock does not disturb:
 //   valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Round*'
 //       build/bench_step 20000 stepper    (or stepper1mhz, dcmotor, dcmotor_ripple):
-//   Ir / (8·20000) per step. The 6-DOF arm: bench_step 1000 arm6 [TIMESTEP] (or arm6_servo);
-//   bench/arm_cost.sh runs them.
+//   Ir / (8·20000) per step. The 6-DOF arm: bench_step 1000 arm6 [TIMESTEP] (or arm6_ideal,
+//   arm6_servo); bench/arm_cost.sh runs them.
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
 
@@ -30,7 +30,7 @@ struct Stepping {
   std::vector<double> ctrl_cycle;  // if not empty: ctrl[0] steps through it, one value per step
 };
 
-// Loads `path`; a non-empty `configs` is inserted into its stepper's <config> list (e.g. the 1 MHz
+// Loads `path`; a non-empty `configs` is inserted into each stepper's <config> list (e.g. the 1 MHz
 // clock), a non-empty `timestep` (s) replaces the model's 1 ms one, through a VFS under the file's
 // own name.
 Stepping Load(const std::string& path, double ctrl, const std::string& configs = "",
@@ -40,7 +40,12 @@ Stepping Load(const std::string& path, double ctrl, const std::string& configs =
   std::stringstream text;
   text << file.rdbuf();
   std::string xml = text.str();
-  if (!configs.empty()) xml.insert(xml.find("<config key=\"motor\""), configs);
+  // Into every stepper of the model (the arm's six; the rotor's one).
+  const std::string motor_key = R"(<config key="motor")";
+  for (size_t at = xml.find(motor_key); !configs.empty() && at != std::string::npos;
+       at = xml.find(motor_key, at + configs.size() + motor_key.size())) {
+    xml.insert(at, configs);
+  }
   if (!timestep.empty()) {
     const std::string own = R"(timestep="1e-3")";
     const size_t at = xml.find(own);
@@ -54,7 +59,8 @@ Stepping Load(const std::string& path, double ctrl, const std::string& configs =
   // same peak current (1.9 A): the model's own drive key removed, as MJCF keeps the first.
   if (configs.find(R"(key="drive")") != std::string::npos) {
     const std::string pi = R"(<config key="drive" value="current_microstep"/>)";
-    xml.erase(xml.find(pi), pi.size());
+    for (size_t at = xml.find(pi); at != std::string::npos; at = xml.find(pi))
+      xml.erase(at, pi.size());
   }
   mjVFS vfs;
   mj_defaultVFS(&vfs);
@@ -124,11 +130,16 @@ int main(int argc, char** argv) {
   // "stepper", "stepper_explicit", "stepper1mhz", "chopper", "chopper_heat", "spreadcycle",
   // "stealthchop", "dcmotor" or "dcmotor_ripple": that one alone (for callgrind)
   const std::string only = argc > 2 ? argv[2] : "";
-  // "arm6" (models/arm6.xml, six steppers on position trapezoids) or "arm6_servo" (the same arm on
-  // MuJoCo's position servos), holding the standby pose from qpos0 against gravity, the plugin
-  // alone (no probe sensors, unlike `mjstepper run`); an optional timestep (s) replaces their 1 ms.
-  if (only == "arm6" || only == "arm6_servo") {
-    const Stepping s = Load(dir + only + ".xml", 0.0, "", argc > 3 ? argv[3] : "");
+  // "arm6" (models/arm6.xml, six steppers on position trapezoids), "arm6_ideal" (its drives
+  // ideal current sources) or "arm6_servo" (the same arm on MuJoCo's position servos), holding the
+  // standby pose from qpos0 against gravity, the plugin alone (no probe sensors, unlike `mjstepper
+  // run`); an optional timestep (s) replaces their 1 ms.
+  if (only == "arm6" || only == "arm6_servo" || only == "arm6_ideal") {
+    const Stepping s =
+        only == "arm6_ideal"
+            ? Load(dir + "arm6.xml", 0.0, R"(<config key="drive" value="ideal_current"/>)",
+                   argc > 3 ? argv[3] : "")
+            : Load(dir + only + ".xml", 0.0, "", argc > 3 ? argv[3] : "");
     double best = 1e300;
     for (int round = 0; round < 8; ++round) best = std::min(best, Round(s, steps));
     fmt::print("{} at {:g} s: {:.1f} ns/step, {:.3g} s per simulated second\n", only,
