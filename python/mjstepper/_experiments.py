@@ -118,7 +118,7 @@ def speeds_text(speeds):
 
 # The options whose values are text (paths, names, profiles, --set items); every other takes
 # numbers only (a str there is a TypeError, as a list where a number belongs).
-_TEXT_OPTIONS = {"ctrl", "log", "keyframe", "render", "frames", "camera", "plot", "accel_log",
+_TEXT_OPTIONS = {"ctrl", "log", "keyframe", "start", "render", "frames", "camera", "plot", "accel_log",
                  "accelerometer", "actuator", "out", "speeds", "vary", "axis", "dyno", "set",
                  "overlay", "move", "speed", "accel"}
 
@@ -166,17 +166,18 @@ def _items(value):
 
 
 def run(model, duration, *, ctrl=None, log=None, log_every=None, set=(), load=None, mass=None,
-        keyframe=None, allow_coarse=False, render=None, frames=None, camera=None, size=None,
+        keyframe=None, start=None, allow_coarse=False, render=None, frames=None, camera=None, size=None,
         fps=None, playback=None, overlay=(), no_overlay=False, plot=None, accel_log=None,
         accelerometer=None, traces=True, progress=False):
     """`mjstepper run`: steps `model` for `duration` s with a command profile per stepper
     (`ctrl={"shaft": "ramp(0rpm,200rpm,0.8s)"}`), writing the CSV log, video, frames or
     accelerometer log asked for; returns a RunResult (with each stepper's per-step trace unless
     traces=False). `set` ("shaft.damping=all", ...), `load` and `mass` ({name: value}) and the
-    rest are the command's options (README, "The command")."""
+    rest are the command's options (README, "The command"); `start` "settled" (the default: under
+    gravity the drives first settle while it is ramped in) or "aligned" (full gravity at t = 0)."""
     args = command_line("run", [model], dict(
         duration=duration, ctrl=ctrl, log=log, log_every=log_every, set=_items(set), load=load,
-        mass=mass, keyframe=keyframe, allow_coarse=allow_coarse, render=render, frames=frames,
+        mass=mass, keyframe=keyframe, start=start, allow_coarse=allow_coarse, render=render, frames=frames,
         camera=camera, size=size, fps=fps, playback=playback, overlay=_items(overlay),
         no_overlay=no_overlay, plot=plot, accel_log=accel_log, accelerometer=accelerometer,
         quiet=_quiet(progress)))
@@ -270,15 +271,15 @@ def _joint_values(name, values, unit):
 
 
 def size(model, move, *, speed=None, accel=None, dwell=None, cycles=None, pullout_points=None,
-         out=None, threads=None, set=(), mass=None, keyframe=None, allow_coarse=False, log=None,
-         render=None, camera=None, size=None, fps=None, playback=None, progress=False):
+         out=None, threads=None, set=(), mass=None, keyframe=None, start=None, allow_coarse=False,
+         log=None, render=None, camera=None, size=None, fps=None, playback=None, progress=False):
     """`mjstepper size`: does each joint's motor, drive and bus carry `move`, {actuator:
     waypoints} ("30,0deg", or numbers in rad), at `speed` and `accel` ({actuator: "90deg/s"} /
     {actuator: "600deg/s²"}, or numbers in rad/s, rad/s² — numbers are a hinge's: give a slide's
     as a str, "10,20mm"; default: each drive's own profile)?
     Returns a Sizing: the table (margin at the worst point, lost steps, winding temperature after
     1 and `cycles` cycles and in continuous duty), each joint's demand and pull-out curve; with
-    `out`, writes the command's CSVs and PNGs."""
+    `out`, writes the command's CSVs and PNGs. `start`: as run's ("settled" or "aligned")."""
     def joints(name, values, unit):
         return None if values is None else {
             key: _joint_values(f"{name}[{key!r}]", v, unit) for key, v in values.items()}
@@ -286,8 +287,8 @@ def size(model, move, *, speed=None, accel=None, dwell=None, cycles=None, pullou
         move=joints("move", move, "rad"), speed=joints("speed", speed, "rad/s"),
         accel=joints("accel", accel, "rad/s²"), dwell=dwell, cycles=cycles,
         pullout_points=pullout_points, out=out, threads=threads, set=_items(set), mass=mass,
-        keyframe=keyframe, allow_coarse=allow_coarse, log=log, render=render, camera=camera,
-        size=size, fps=fps, playback=playback, quiet=_quiet(progress)))
+        keyframe=keyframe, start=start, allow_coarse=allow_coarse, log=log, render=render,
+        camera=camera, size=size, fps=fps, playback=playback, quiet=_quiet(progress)))
     r = _engine.compute(args, False)
     return Sizing(table=Table(r["table"]),
                   demand={name: Table(t) for name, t in r["demand"].items()},

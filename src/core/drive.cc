@@ -127,6 +127,8 @@ double SlipCell(double load_angle, double cell) {
   return cell;
 }
 
+static_assert(sizeof(MotionProfile::State) % sizeof(double) == 0);
+
 StateLayout MakeStateLayout(const DriveConfig& c) {
   StateLayout layout{.core = Doubles<DriveCoreState>()};
   layout.controller = std::visit(
@@ -147,10 +149,6 @@ Drive::Drive(DriveConfig config) : config_(std::move(config)) {
                 .bus_voltage = config_.bus_voltage};
   layout_ = MakeStateLayout(config_);
   step_angle_ = mjstepper::StepAngle(config_);
-  if (layout_.controller + layout_.profile > kMaxUnitState) {
-    throw std::invalid_argument(fmt::format("Drive: {} unit state doubles exceed {}",
-                                            layout_.controller + layout_.profile, kMaxUnitState));
-  }
   stage_ = {.kind = config_.power_stage, .bus_voltage = config_.bus_voltage};
   for (const DetentHarmonic& h : motor.detent) {
     if (static_cast<int>(detent_weights_.size()) < h.order) detent_weights_.resize(h.order);

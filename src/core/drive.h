@@ -28,11 +28,13 @@
 #ifndef MJSTEPPER_CORE_DRIVE_H_
 #define MJSTEPPER_CORE_DRIVE_H_
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <optional>
 #include <type_traits>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "core/controllers/registry.h"
@@ -210,8 +212,20 @@ static_assert(std::is_trivially_copyable_v<DriveCoreState> &&
               std::is_standard_layout_v<DriveCoreState> &&
               sizeof(DriveCoreState) % sizeof(double) == 0);
 
-/// Room for the largest controller state plus the profile's plan, in doubles.
-inline constexpr int kMaxUnitState = 40;
+namespace internal {
+template <class V>
+struct LargestState;
+template <class... C>
+struct LargestState<std::variant<C...>> {
+  static constexpr std::size_t value = std::max({sizeof(typename C::State)...});
+};
+}  // namespace internal
+
+/// Room for the largest controller state plus the profile's plan, in doubles: computed from the
+/// registered controllers' own State types, so no combination of drive, chip and profile can
+/// exceed it (issue 29: a fixed 40 was exceeded by every chopper drive with a profile).
+inline constexpr int kMaxUnitState = static_cast<int>(
+    (internal::LargestState<Controller>::value + sizeof(MotionProfile::State)) / sizeof(double));
 
 /// The whole state of one drive: the core, then the controller's own state, then the profile's.
 /// Only StateLayout::total doubles of it are stored by a simulator (MuJoCo: plugin_state).

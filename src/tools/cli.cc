@@ -14,6 +14,27 @@
 namespace mjstepper::tools {
 namespace {
 
+// --start: how a run (or a sizing's cycle) starts under gravity (runner.h, StartMode).
+void AddStart(CLI::App* app, StartMode* start) {
+  app->add_option("--start", *start,
+                  "settled (default): when gravity loads a stepper, the drives first hold their "
+                  "start for 0.5 s while gravity is ramped in over 0.3 s, so the motion starts "
+                  "from the load angle that holds the load, as a powered-up arm does; aligned: "
+                  "full gravity at t = 0 on rotors at their aligned angle (overshoots to up to "
+                  "twice the static load angle)")
+      ->transform(CLI::Validator(
+          [](std::string& value) -> std::string {
+            if (value == "settled")
+              value = "0";
+            else if (value == "aligned")
+              value = "1";
+            else
+              return fmt::format("'{}': must be settled or aligned", value);
+            return "";
+          },
+          "settled|aligned"));
+}
+
 // A CLI11 validator: a finite number within the named range (NaN and inf fail); its description,
 // "in [lo, hi] unit", shows in --help.
 CLI::Validator InRange(const char* name) {
@@ -82,6 +103,7 @@ CommandLine::CommandLine(bool out_optional)
   run_->add_option("--keyframe", c.run.keyframe,
                    "start from the model's keyframe of this name (the drives start at rest on "
                    "their rotors there)");
+  AddStart(run_, &c.run.start);
   run_->add_flag("--allow-coarse", c.run.allow_coarse,
                  "run although the timestep is too coarse for a mode a stepper takes part in "
                  "(ω·h > 0.2 with the detent's worst-case stiffness; info lists the modes); a "
@@ -214,6 +236,7 @@ CommandLine::CommandLine(bool out_optional)
     sub->add_option("--set", sets_, kSetHelp);
     sub->add_option("--mass", masses_, "BODY=KG: a body's mass, e.g. payload=0.5 (repeatable)");
     sub->add_option("--keyframe", run.keyframe, "start (and end) each cycle at this keyframe");
+    AddStart(sub, &run.start);
     sub->add_flag("--allow-coarse", run.allow_coarse,
                   "run although the timestep is too coarse for a mode a stepper takes part in");
     sub->add_option("--log", run.log, "CSV log of the cycle (every signal)");

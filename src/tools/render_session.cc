@@ -64,13 +64,14 @@ RenderSession::RenderSession(const mjModel* m, const std::vector<StepperActuator
 
 RenderSession::~RenderSession() = default;
 
-void RenderSession::Step(double t, const std::vector<StepperSample>& samples, mjData* d) {
+void RenderSession::Step(double t, const std::vector<StepperSample>& samples, mjData* d,
+                         double origin) {
   for (size_t i = 0; i < samples.size(); ++i) {
     history_[i].time.push_back(t);
     history_[i].samples.push_back(samples[i]);
   }
   // Frame k shows simulated time k·playback/fps: render each frame whose time has come.
-  while (frame_ * options_.playback / options_.fps <= d->time + 1e-12) {
+  while (frame_ * options_.playback / options_.fps <= d->time - origin + 1e-12) {
     const double frame_time = frame_ * options_.playback / options_.fps;
     RenderFrame(frame_time, d);
     ++frame_;

@@ -44,8 +44,9 @@ class RenderSession {
   ~RenderSession();
 
   /// Records the steppers' samples at time t (one per stepper, in model order), then renders every
-  /// frame whose time has come by d->time.
-  void Step(double t, const std::vector<StepperSample>& samples, mjData* d);
+  /// frame whose time has come by d->time − `origin` (s: the run's clock starts there, after a
+  /// settled start's settling; frames and t are on the run's clock).
+  void Step(double t, const std::vector<StepperSample>& samples, mjData* d, double origin = 0);
   /// Closes the video. Returns the number of frames written.
   long Finish();
   /// Where the overlays go (OverlayLayout), for this frame size and these steppers.

@@ -3,8 +3,10 @@
 #include <fmt/format.h>
 #include <fmt/ostream.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <optional>
 #include <ostream>
 #include <stdexcept>
@@ -20,6 +22,56 @@
 #include "stepper_model.h"
 
 namespace mjstepper::tools {
+namespace {
+
+// Whether gravity loads a stepper at the state's pose: a generalised gravity force (qfrc_bias at
+// rest) along any stepper's moment row.
+bool GravityLoadsASteppers(const mjModel* m, const mjData* d, const StepperModel& sm) {
+  if (mju_norm3(m->opt.gravity) == 0) return false;
+  const DataPtr rest(mj_copyData(nullptr, m, d));
+  mju_zero(rest->qvel, m->nv);
+  mj_forward(m, rest.get());
+  for (const StepperActuator& s : sm.steppers) {
+    const std::vector<double> row = MomentRow(m, rest.get(), s.actuator);
+    double load = 0;  // N·m (or N) at the rotor, through the moment row
+    for (int i = 0; i < m->nv; ++i) load += row[i] * rest->qfrc_bias[i];
+    if (std::abs(load) > 1e-12) return true;
+  }
+  return false;
+}
+
+// StartMode::kSettled: `duration` s with each stepper holding where it starts (a speed of 0, or its
+// rotor's start angle or count: a target of the profile is not taken yet) while the model's gravity
+// rises from 0 along a half cosine over kSettleRamp and is then held; gravity is the model's own
+// again at the end.
+void Settle(mjModel* m, mjData* d, const std::vector<StepperActuator>& steppers,
+            const std::vector<double>& theta_start, double duration) {
+  const std::array<double, 3> gravity = {m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]};
+  const double t0 = d->time;
+  const long steps = std::lround(duration / m->opt.timestep);
+  for (long k = 0; k < steps; ++k) {
+    const double ramp = std::min((d->time - t0) / kSettleRamp, 1.0);
+    const double scale = 0.5 * (1 - std::cos(std::numbers::pi * ramp));
+    for (int i = 0; i < 3; ++i) m->opt.gravity[i] = scale * gravity[i];
+    for (size_t i = 0; i < steppers.size(); ++i) {
+      const StepperActuator& s = steppers[i];
+      const double step = StepAngle(s.config);  // rad per microstep (input = steps)
+      d->ctrl[s.ctrladr] = s.config.input == InputMode::kVelocity ? 0.0
+                           : s.config.input == InputMode::kSteps
+                               ? (step > 0 ? std::round(theta_start[i] / step) : 0.0)
+                               : theta_start[i];
+    }
+    const double t = d->time;
+    mj_step(m, d);
+    if (const std::string unstable = InstabilityMessage(d, t); !unstable.empty()) {
+      for (int i = 0; i < 3; ++i) m->opt.gravity[i] = gravity[i];
+      throw std::runtime_error(fmt::format("while settling under gravity: {}", unstable));
+    }
+  }
+  for (int i = 0; i < 3; ++i) m->opt.gravity[i] = gravity[i];
+}
+
+}  // namespace
 
 RunResult Run(const RunOptions& options, std::ostream& progress) {
   RequireInRange("--duration", Range("duration"), options.duration);
@@ -149,7 +201,20 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   std::vector<double> row;
   const auto start = std::chrono::steady_clock::now();
   auto last_report = start;
-  const double t_begin = d->time;  // a keyframe may start the clock anywhere; profiles start here
+  // A settled start (StartMode::kSettled): the start commands held while gravity comes in.
+  const double settle =
+      options.start == StartMode::kSettled && GravityLoadsASteppers(m, d, sm) ? kSettleTime : 0.0;
+  result.settle_time = settle;
+  if (settle > 0) {
+    if (options.progress) {
+      fmt::print(progress, "  settling: gravity ramped in over {:g} s, held to {:g} s\n",
+                 kSettleRamp, settle);
+    }
+    Settle(sm.model.get(), d, sm.steppers, theta_start, settle);
+  }
+  // A keyframe may start the clock anywhere; profiles start here, and the log's time too (less
+  // the settling).
+  const double t_begin = d->time;
   for (long k = 0; k < steps; ++k) {
     const double t = d->time;
     for (size_t i = 0; i < sm.steppers.size(); ++i) {
@@ -170,7 +235,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
           csv ? fmt::format("{} (the log {} ends there)", unstable, options.log) : unstable);
     }
     // After mj_step, actuator_length/velocity and sensordata describe the step's start, time t.
-    row.assign(1, t);
+    row.assign(1, t - settle);
     for (size_t i = 0; i < sm.steppers.size(); ++i) {
       const StepperActuator& s = sm.steppers[i];
       const double omega = d->actuator_velocity[s.outadr];
@@ -195,7 +260,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
                     .lost_steps = signals[kLostSteps]};
       if (options.keep_traces) {
         StepperTrace& trace = result.traces[i];
-        trace.time.push_back(t);
+        trace.time.push_back(t - settle);
         trace.omega_cmd.push_back(omega_cmd);
         trace.velocity_error.push_back(error);
         trace.current_a.push_back(signals[kCurrentA]);
@@ -217,7 +282,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
       }
     }
     if (csv && k % options.log_every == 0) csv->Row(row);
-    if (render) render->Step(t, samples, d);
+    if (render) render->Step(t - settle, samples, d, settle);
     if (adxl) {  // the sensor after mj_step describes the step's start: held over [t, t + h)
       const mjtNum* a = d->sensordata + accel_adr;
       adxl->Add(t, t + h, {a[0], a[1], a[2]}, &accel_samples);

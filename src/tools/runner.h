@@ -12,6 +12,25 @@
 
 namespace mjstepper::tools {
 
+/// How a run starts (SPEC §12, "Starting state").
+enum class StartMode {
+  /// A powered-up arm: when gravity loads a stepper at the start pose, the drives first hold their
+  /// start commands for kSettleTime while gravity is ramped in (a half cosine over kSettleRamp,
+  /// then held), so that each rotor sits at the load angle that holds its load when the measured
+  /// motion starts; then the run's own clock starts (the log's time and the profiles' from there).
+  /// Without such a load there is nothing to settle and the run starts at once.
+  kSettled,
+  /// Gravity at full strength at t = 0 on rotors at their aligned angle: the rotor overshoots to
+  /// up to twice the static load angle (an arm dropped onto its motors).
+  kAligned,
+};
+
+/// The settling phase of StartMode::kSettled, s: the ramp, then the hold. The ramp is slow
+/// against the arms' modes (15-300 Hz: at least 4.5 periods of the slowest), so that it loads the
+/// rotors quasi-statically; the hold lets what rings decay.
+inline constexpr double kSettleRamp = 0.3;
+inline constexpr double kSettleTime = 0.5;
+
 struct RunOptions {
   std::string model;                        ///< MJCF path
   double duration = 1.0;                    ///< s of simulated time
@@ -23,6 +42,7 @@ struct RunOptions {
   std::map<std::string, double> loads;      ///< load actuator name → τl, N·m (SetLoadTorque)
   bool allow_coarse = false;                ///< run although a stepper mode's ω·h > 0.2
   std::string keyframe;                     ///< start from this keyframe; empty: qpos0
+  StartMode start = StartMode::kSettled;    ///< settle under gravity first, or start aligned
   std::map<std::string, double> masses;     ///< body name → mass, kg (SetBodyMass)
   bool keep_traces = false;                 ///< fill RunResult::traces (for studies and tests)
   RenderOptions render;                     ///< video and frames; off unless a path is given
@@ -58,8 +78,9 @@ struct StepperSummary {
 
 struct RunResult {
   long steps = 0;
-  double sim_time = 0;   ///< s
-  double wall_time = 0;  ///< s
+  double sim_time = 0;     ///< s
+  double settle_time = 0;  ///< s the drives settled under gravity before the motion (kSettled)
+  double wall_time = 0;    ///< s
   std::vector<StepperSummary> steppers;
   std::vector<StepperTrace> traces;  ///< one per stepper when RunOptions::keep_traces
   long frames = 0;                   ///< frames rendered

@@ -301,6 +301,18 @@ class OneEngine(unittest.TestCase):
         self.assertAlmostEqual(float(trace.omega_cmd[-1]), 150 * 2 * math.pi / 60 * (1 - 1 / 6000),
                                places=9)
 
+    def test_run_starts_settled_or_aligned(self):
+        # models/arm3.xml with 1.5 kg (issue 29, item 5): held once settled, slips when dropped.
+        arm = os.path.join(SOURCE, "models", "arm3.xml")
+        lost = {}
+        for start in ("settled", "aligned"):
+            result = mjstepper.run(arm, 0.3, mass={"payload": 1.5}, start=start, traces=False)
+            lost[start] = float(abs(result.steppers.lost_steps).sum())
+        self.assertEqual(lost["settled"], 0)
+        self.assertGreater(lost["aligned"], 0)
+        with self.assertRaisesRegex(ValueError, "--start"):
+            mjstepper.run(arm, 0.01, start="upright")
+
     def test_identify(self):
         bench = os.path.join(SOURCE, "models", "tsui_identify.xml")
         printed = self.cli("identify", bench, "--speeds", "10,30rpm").stdout

@@ -326,6 +326,9 @@ TEST(RenderLayout, EveryStepperGetsItsPlotsInTheVideo) {
             {"elbow", "constant(6rad)"},
             {"wrist", "constant(10rad)"}};
   o.progress = false;
+  // The layout, not the start: from the aligned rotors every phase current moves from the first
+  // frame on (settled, a holding drive's currents draw flat lines on a plot's edge).
+  o.start = StartMode::kAligned;
   o.render.video = (dir / "run.mp4").string();
   o.render.renderer = {.width = 640, .height = 480, .camera = ""};
   o.render.fps = 2;          // a page every 3 s of video: every 6 frames

@@ -54,8 +54,9 @@ double Mean(const std::vector<double>& v, const std::vector<double>& t, double f
 }
 
 // Size() on a copy of the rotor model with `attributes` added to its actuator (after the
-// armature); the copy is removed however Size() ends.
-SizeResult SizeWithAttributes(const std::string& attributes) {
+// armature) and `configs` (<config> elements) to its plugin; the copy is removed however Size()
+// ends.
+SizeResult SizeWithAttributes(const std::string& attributes, const std::string& configs = "") {
   std::ifstream in(kRotor);
   std::stringstream text;
   text << in.rdbuf();
@@ -64,6 +65,7 @@ SizeResult SizeWithAttributes(const std::string& attributes) {
   const size_t at = xml.find(armature);
   if (at == std::string::npos) throw std::logic_error(kRotor + ": no " + armature);
   xml.insert(at + armature.size(), attributes);
+  xml.insert(xml.find("</plugin>"), configs);
   struct Copy {
     std::filesystem::path path;
     ~Copy() {
@@ -96,9 +98,12 @@ TEST(Size, DemandIsInertiaTimesAccelerationAndPullOutAtRestIsTheHoldingTorque) {
   // And against the motion while braking (0.12-0.18 s).
   EXPECT_NEAR(Mean(j.motor_torque, j.time, 0.12, 0.18) / (-kInertia * kAccel), 1.0, 0.03);
   EXPECT_NEAR(j.peak_speed, 20, 0.02);  // rad/s: the triangle's peak, sampled at the steps
-  // The bench holds up to the peak of the sine torque, Km·I: 2 % (the load's rate, 0.44 N·m/s,
-  // and the detection one step late).
-  EXPECT_NEAR(j.pullout.front().torque / kHolding, 1.0, 0.02);
+  // The bench holds up to the peak of the sine torque, √2·Km·I (S-4 at δ = π/2), and never more
+  // (issue 29 item 6: the load when the slip was counted read 2-5 % above it). Below it by at
+  // most 2 %: the motor's torque is a 10 ms mean while the load rises 0.5 N·m/s (0.4 %), and the
+  // PI loop's current error as the rotor leaves.
+  EXPECT_LE(j.pullout.front().torque, kHolding);
+  EXPECT_GT(j.pullout.front().torque, 0.98 * kHolding);
   EXPECT_NEAR(j.bench_inertia, kInertia, 1e-12);
   // The margin is the least of 1 − |τ|/T_po over the move, T_po linear in speed between points.
   double least = 1;
@@ -140,6 +145,31 @@ TEST(Size, TheBenchKeepsTheActuatorsForceRange) {
   std::printf("pull-out at rest with forcerange ±0.3 N·m: %.4f N·m\n", j.pullout.front().torque);
   EXPECT_GE(j.pullout.front().torque, 0.3);
   EXPECT_LT(j.pullout.front().torque, 0.33);
+}
+
+// Issue 29 item 1: a driver chip with the drive's own profile loads and is sized, here the
+// TMC5160 of PAROL6 in StealthChop (and in SpreadCycle): its pull-out at rest is the holding
+// torque at the current the chip regulates, √2·Km·I_run with I_run = 2 A rounded to the
+// TMC5160's GLOBALSCALER step (167/256 of 3.064 A: 1.999 A), never above it; 3 % below for the
+// chopper's current ripple around its target and the 10 ms mean.
+TEST(Size, ADriverChipWithTheDrivesProfileIsSized) {
+  for (const char* drive : {"stealthchop", "spreadcycle"}) {
+    SCOPED_TRACE(drive);
+    const SizeResult r = SizeWithAttributes(
+        "", fmt::format(R"(<config key="driver" value="tmc5160"/><config key="drive" )"
+                        R"(value="{}"/><config key="microsteps" value="32"/>)",
+                        drive));
+    ASSERT_EQ(r.joints.size(), 1u);
+    const SizeJoint& j = r.joints[0];
+    EXPECT_EQ(j.drive, drive);
+    const double holding = kHolding * (167.0 / 256 * 0.325 / 0.075 / std::sqrt(2.0)) / 2.0;
+    std::printf("%s: pull-out at rest %.4f N·m (holding %.4f), margin %.3f, lost %g\n", drive,
+                j.pullout.front().torque, holding, j.margin, j.lost_steps);
+    EXPECT_LE(j.pullout.front().torque, holding);
+    EXPECT_GT(j.pullout.front().torque, 0.97 * holding);
+    EXPECT_EQ(j.lost_steps, 0);
+    EXPECT_GT(j.margin, 0.5);
+  }
 }
 
 // Names with a comma or a quote stay one CSV field.

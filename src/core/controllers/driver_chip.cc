@@ -39,7 +39,8 @@ const std::vector<DriverChip>& DriverChips() {
        .source = "Trinamic TMC2209 datasheet Rev. 1.09: 4.75-29 V, 2 A RMS (2.8 A peak), f_CLK "
                  "12 MHz, t_OFF = (24 + 32·TOFF)/f_CLK, TBL 16/24/32/40 clocks, StallGuard4 in "
                  "StealthChop only; BigTreeTech "
-                 "module R_S 0.110 Ω; Klipper's CHOPCONF defaults TOFF 3, HSTRT 5, HEND 0, TBL 2",
+                 "module R_S 0.110 Ω; Klipper's CHOPCONF defaults TOFF 3, HSTRT 5, HEND 0, TBL 2, "
+                 "IHOLDDELAY 8, TPOWERDOWN 20",
        .max_bus_voltage = 29,
        .max_current = 2.0,
        .sense_resistor = 0.110,
@@ -58,13 +59,15 @@ const std::vector<DriverChip>& DriverChips() {
        .off_time = 0,
        .pwm_frequency = 0,
        .blank_time = 0,
-       .fast_fraction = 0},
+       .fast_fraction = 0,
+       .iholddelay = 8,
+       .tpowerdown = 20},
       {.name = "tmc2130",
        .drive = "spreadcycle",
        .source = "Trinamic TMC2130 datasheet Rev. 1.15: 4.75-46 V, 1.2 A RMS (QFN; 2.5 A peak), "
                  "f_CLK 13.2 MHz typical, t_OFF = (12 + 32·TOFF)/f_CLK, TBL 16/24/36/54 clocks, "
                  "StallGuard2 in SpreadCycle; module R_S 0.110 Ω; Klipper's defaults TOFF 4, HSTRT "
-                 "0, HEND 7, TBL 1",
+                 "0, HEND 7, TBL 1, IHOLDDELAY 8, TPOWERDOWN 0",
        .max_bus_voltage = 46,
        .max_current = 1.2,
        .sense_resistor = 0.110,
@@ -83,14 +86,16 @@ const std::vector<DriverChip>& DriverChips() {
        .off_time = 0,
        .pwm_frequency = 0,
        .blank_time = 0,
-       .fast_fraction = 0},
+       .fast_fraction = 0,
+       .iholddelay = 8,
+       .tpowerdown = 0},
       {.name = "tmc5160",
        .drive = "spreadcycle",
        .source = "Trinamic TMC5160 datasheet Rev. 1.14: 8-60 V, external MOSFETs (up to 20 A; "
                  "3 A RMS here, the BigTreeTech module's rating), f_CLK 12 MHz, t_OFF = "
                  "(24 + 32·TOFF)/f_CLK, TBL 16/24/36/54 clocks, StallGuard2 in SpreadCycle, R_S "
                  "0.075 Ω; Klipper's defaults "
-                 "TOFF 3, HSTRT 5, HEND 2, TBL 2",
+                 "TOFF 3, HSTRT 5, HEND 2, TBL 2, IHOLDDELAY 6, TPOWERDOWN 10",
        .max_bus_voltage = 60,
        .max_current = 3.0,
        .sense_resistor = 0.075,
@@ -109,7 +114,9 @@ const std::vector<DriverChip>& DriverChips() {
        .off_time = 0,
        .pwm_frequency = 0,
        .blank_time = 0,
-       .fast_fraction = 0},
+       .fast_fraction = 0,
+       .iholddelay = 6,
+       .tpowerdown = 10},
       {.name = "a4988",
        .drive = "chopper",
        .source = "Allegro A4988 datasheet (A4988-DS Rev. 7): 8-35 V, ±2 A (1.41 A RMS), fixed "
@@ -133,7 +140,9 @@ const std::vector<DriverChip>& DriverChips() {
        .off_time = 30e-6,
        .pwm_frequency = 0,
        .blank_time = 1e-6,
-       .fast_fraction = 0.3125},
+       .fast_fraction = 0.3125,
+       .iholddelay = 0,
+       .tpowerdown = 0},
       {.name = "drv8825",
        .drive = "chopper",
        .source = "TI DRV8825 datasheet (SLVSA73F): 8.2-45 V, 2.5 A full scale (1.77 A RMS), "
@@ -157,7 +166,9 @@ const std::vector<DriverChip>& DriverChips() {
        .off_time = 0,
        .pwm_frequency = 30e3,
        .blank_time = 3.75e-6,
-       .fast_fraction = 0.75},
+       .fast_fraction = 0.75,
+       .iholddelay = 0,
+       .tpowerdown = 0},
   };
   return chips;
 }
@@ -179,12 +190,14 @@ DriverChip::Regulation DriverChip::Regulate(double run_current, double r_sense) 
       return {.current = run_current, .most = max_current};
     case CurrentScaling::kCsVsense: {
       // The nearest current of either full scale (Klipper picks the same way, vsense first).
-      const double low =
-          CsCurrent(NearestCs(run_current, kFullScaleLow, r_sense), kFullScaleLow, r_sense);
-      const double high =
-          CsCurrent(NearestCs(run_current, kFullScaleHigh, r_sense), kFullScaleHigh, r_sense);
-      return {.current = std::abs(low - run_current) <= std::abs(high - run_current) ? low : high,
-              .most = std::min(max_current, CsCurrent(31, kFullScaleHigh, r_sense))};
+      const int cs_low = NearestCs(run_current, kFullScaleLow, r_sense);
+      const int cs_high = NearestCs(run_current, kFullScaleHigh, r_sense);
+      const double low = CsCurrent(cs_low, kFullScaleLow, r_sense);
+      const double high = CsCurrent(cs_high, kFullScaleHigh, r_sense);
+      const bool pick_low = std::abs(low - run_current) <= std::abs(high - run_current);
+      return {.current = pick_low ? low : high,
+              .most = std::min(max_current, CsCurrent(31, kFullScaleHigh, r_sense)),
+              .cs = pick_low ? cs_low : cs_high};
     }
     case CurrentScaling::kGlobalScale: {
       const double exact = 256.0 * run_current * std::sqrt(2.0) * r_sense / kFullScaleHigh;
@@ -192,7 +205,8 @@ DriverChip::Regulation DriverChip::Regulate(double run_current, double r_sense) 
       const double per_cs = ScaledCurrent(gs, 31, r_sense) / 32;  // A per CS step
       const int cs = std::clamp(static_cast<int>(std::lround(run_current / per_cs)) - 1, 0, 31);
       return {.current = ScaledCurrent(gs, cs, r_sense),
-              .most = std::min(max_current, ScaledCurrent(256, 31, r_sense))};
+              .most = std::min(max_current, ScaledCurrent(256, 31, r_sense)),
+              .cs = cs};
     }
   }
   return {.current = run_current, .most = max_current};

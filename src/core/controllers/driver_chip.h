@@ -66,11 +66,16 @@ struct DriverChip {
   double pwm_frequency;  ///< Hz (0: fixed off-time)
   double blank_time;     ///< s
   double fast_fraction;  ///< mixed decay's fast part
+  // Standstill current reduction (TMC only; IHOLD_IRUN and TPOWERDOWN registers): the defaults
+  // Klipper writes (klippy/extras/tmc2130.py, tmc2209.py, tmc5160.py).
+  int iholddelay;  ///< IHOLDDELAY 0..15
+  int tpowerdown;  ///< TPOWERDOWN 0..255
 
   /// What the chip makes of a requested `run_current` (A RMS) with sense resistor `r_sense` (Ω).
   struct Regulation {
     double current;  ///< A RMS: the request rounded to the chip's steps (CS, vsense, GLOBALSCALER)
     double most;     ///< A RMS: the most the chip, with this sense resistor, regulates
+    int cs = 31;     ///< IRUN, the current scale CS 0..31 it is set with (31: analog chips)
   };
   Regulation Regulate(double run_current, double r_sense) const;
 };

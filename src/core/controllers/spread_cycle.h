@@ -96,8 +96,8 @@ struct SpreadCycle {
                "has no SpreadCycle (a constant-off-time chopper): use drive = chopper");
     }
     SpreadCycle c;
-    c.table = MicrostepTable::FromAttributes(a, motor, chip->interpolate);
     const double f_clk = a.Real(kAttrClockFrequency, chip->clock_frequency, 4e6, 2e7);  // Hz
+    c.table = MicrostepTable::FromAttributes(a, motor, chip->interpolate, f_clk);
     const int toff = a.Integer(kAttrToff, chip->toff, 1, 15);
     const int tbl = a.Integer(kAttrTbl, chip->tbl, 0, 3);
     if (toff == 1 && tbl < 2) {

@@ -210,15 +210,15 @@ struct StealthChop {
                "has no StealthChop (a constant-off-time chopper): use drive = chopper");
     }
     StealthChop c;
+    c.clock_frequency = a.Real(kAttrClockFrequency, chip->clock_frequency, 4e6, 2e7);
     // MicroPlyer on, as TMC drives run it (Klipper's `interpolate: True`).
-    c.table = MicrostepTable::FromAttributes(a, motor, chip->interpolate);
+    c.table = MicrostepTable::FromAttributes(a, motor, chip->interpolate, c.clock_frequency);
     c.pwm_ofs = a.Integer(kAttrPwmOfs, c.pwm_ofs, 0, 255);
     c.pwm_grad = a.Integer(kAttrPwmGrad, c.pwm_grad, 0, 255);
     c.pwm_autoscale = a.Choice(kAttrPwmAutoscale, "on", {"on", "off"}) == "on";
     c.pwm_autograd = a.Choice(kAttrPwmAutograd, "on", {"on", "off"}) == "on";
     c.pwm_reg = a.Integer(kAttrPwmReg, c.pwm_reg, 1, 15);
     c.pwm_freq = a.Integer(kAttrPwmFreq, c.pwm_freq, 0, 3);
-    c.clock_frequency = a.Real(kAttrClockFrequency, chip->clock_frequency, 4e6, 2e7);
     c.stallguard = StallGuard::FromAttributes(a, given != nullptr ? given->stallguard_stealth : 0);
     return c;
   }
@@ -232,8 +232,10 @@ struct StealthChop {
     const double ticks_per_clock = 1 / (k.isr_period * clock_frequency);
     const bool standstill = s->idle_ticks >= kStandstillClocks * ticks_per_clock;
     const double volts_per_unit = VoltsPerUnit(stage.bus_voltage);
-    // CoolStep scales the target the regulator aims at (sensors/stallguard.h).
-    const double peak = in.current_scale * table.peak_current;  // A
+    // CoolStep and the standstill current scale the target the regulator aims at
+    // (sensors/stallguard.h, step_table.h).
+    const double peak =
+        in.current_scale * table.StandstillScale(k, in.tick, s->counter) * table.peak_current;
     if (pwm_autoscale) {
       Regulate(k, peak, std::abs(in.current), position, standstill, velocity_term, volts_per_unit,
                ticks_per_clock, s);
@@ -251,7 +253,7 @@ struct StealthChop {
   PhaseVector Rest(const DriveConstants& k, const RestInput& in, State* s) const {
     *s = {};
     const double count = table.Count(k, in.theta_cmd);
-    s->counter.count = s->counter.from = count;
+    table.RestTargets(k, in.theta_cmd, &s->counter);  // the counter, stood still for ever
     s->step_count = s->span_count = count;
     s->idle_ticks = s->span_ticks = kTickCap;  // rested for ever: at standstill
     s->tstep = kStandstillClocks - 1;
@@ -259,10 +261,10 @@ struct StealthChop {
     s->last_position = count;
     s->grad_auto = pwm_grad;  // "PWM_GRAD_AUTO is initialized with PWM_GRAD"
     const double volts_per_unit = VoltsPerUnit(k.bus_voltage);
-    const double velocity_term = 256 / (kStandstillClocks - 1);  // TSTEP at standstill
-    s->ofs_auto = std::clamp(
-        k.resistance * table.peak_current / volts_per_unit - s->grad_auto * velocity_term, 0.0,
-        kFullScale);
+    const double velocity_term = 256 / (kStandstillClocks - 1);             // TSTEP at standstill
+    const double peak = table.power_down.HoldScale() * table.peak_current;  // A, at standstill
+    s->ofs_auto = std::clamp(k.resistance * peak / volts_per_unit - s->grad_auto * velocity_term,
+                             0.0, kFullScale);
     const double amplitude = Amplitude(*s, velocity_term);
     return amplitude * volts_per_unit / k.resistance * table.Targets(count) / table.peak_current;
   }

@@ -11,6 +11,14 @@
 // With interpolation (Trinamic's MicroPlyer, TMC2209 datasheet §"MicroPlyer"), a step arriving
 // after an interval Δ since the one before is spread over the next Δ in 1/256 full steps: the
 // vector lags the count by up to one step interval and follows it exactly only at an even rate.
+//
+// Standstill current (SPEC §12; TMC2209 datasheet Rev. 1.09 §5.1 IHOLD_IRUN and TPOWERDOWN, the
+// same fields on TMC2130 and TMC5160; DRV_STATUS.stst): a Trinamic chip detects standstill 2^20
+// clocks after the last step, waits TPOWERDOWN·2^18 clocks more, then lowers the current scale
+// CS from IRUN to IHOLD one step every IHOLDDELAY·2^18 clocks (0: at once); the next step
+// restores IRUN at once (no power-up ramp on these chips). The current is (CS+1)/32 of the full
+// scale, so (CS+1)/(IRUN+1) of run_current. Our reading of "delay per current reduction step":
+// each step waits its delay, the first IHOLDDELAY·2^18 clocks after TPOWERDOWN expired.
 #ifndef MJSTEPPER_CORE_CONTROLLERS_STEP_TABLE_H_
 #define MJSTEPPER_CORE_CONTROLLERS_STEP_TABLE_H_
 
@@ -55,18 +63,60 @@ inline constexpr AttributeSpec kAttrCurrentTable{
     "zero) to 1 (at its peak), each in [0, 1], blanks or commas between them; the other quarters "
     "mirror it. Unset: an exact sine."};
 
+inline constexpr AttributeSpec kAttrIhold{
+    "ihold", "integer", "IRUN (no reduction: Klipper's default)", "— (current scale CS)",
+    "Trinamic drives (`spreadcycle`, `stealthchop`): IHOLD, the current scale at standstill, "
+    "(IHOLD+1)/(IRUN+1) of `run_current`; IRUN is the scale the chip sets `run_current` with "
+    "(31 on TMC5160, whose GLOBALSCALER does the rest; TMC2209/2130 by their sense resistor). "
+    "PAROL6's firmware: IHOLD = IRUN·0.7-0.88. The current falls to it after standstill (2^20 "
+    "clocks without a step), `tpowerdown` and the `iholddelay` ramp; the next step restores "
+    "IRUN. In [0, IRUN]."};
+inline constexpr AttributeSpec kAttrIholddelay{
+    "iholddelay", "integer", "the chip's (Klipper: 8 on TMC2209/2130, 6 on TMC5160)",
+    "— (2^18 clocks)",
+    "Trinamic drives: IHOLDDELAY, the power-down ramp's time per current-scale step, "
+    "IHOLDDELAY·2^18/f_CLK (21.8 ms each at 12 MHz); 0: at once. In [0, 15]."};
+inline constexpr AttributeSpec kAttrTpowerdown{
+    "tpowerdown", "integer", "the chip's (Klipper: 20 on TMC2209, 0 on TMC2130, 10 on TMC5160)",
+    "— (2^18 clocks)",
+    "Trinamic drives: TPOWERDOWN, the delay from standstill detection to the power-down ramp, "
+    "TPOWERDOWN·2^18/f_CLK (0-5.6 s at 12 MHz). In [0, 255]."};
+
+/// The standstill current reduction of a Trinamic chip (see the file comment). Timings in s.
+struct PowerDown {
+  int irun = 31;        ///< IRUN, the run current's scale
+  int ihold = 31;       ///< IHOLD; >= irun: no reduction
+  double detect = 0;    ///< s from the last step to standstill detection: 2^20/f_CLK
+  double delay = 0;     ///< s from then to the ramp: TPOWERDOWN·2^18/f_CLK
+  double per_step = 0;  ///< s per current-scale step of the ramp: IHOLDDELAY·2^18/f_CLK
+
+  bool Reduces() const { return ihold < irun; }
+  /// The fraction of run_current after `idle` s without a step.
+  double Scale(double idle) const {
+    if (!Reduces()) return 1.0;
+    const double ramp = idle - detect - delay;  // s into the ramp
+    if (!(ramp >= 0)) return 1.0;
+    const double down = per_step > 0 ? std::floor(ramp / per_step) : irun;  // steps taken
+    const double cs = std::max<double>(ihold, irun - down);
+    return (cs + 1) / (irun + 1);
+  }
+  /// The fraction after a standstill for ever (a drive at rest from its start).
+  double HoldScale() const { return Reduces() ? (ihold + 1.0) / (irun + 1.0) : 1.0; }
+};
+
 /// The table and the step counter of a STEP/DIR driver.
 struct MicrostepTable {
   double peak_current = 2.0;    ///< A, √2·run_current
   int microsteps = 16;          ///< per full step (MRES), 1..256
   bool interpolate = true;      ///< MicroPlyer to 256
   std::vector<double> quarter;  ///< custom quarter wave (microsteps + 1 entries); empty: sine
+  PowerDown power_down;         ///< standstill current (Trinamic chips); none by default
 
   /// What the table keeps between ticks (plain doubles, in the unit's state).
   struct Counter {
     double count = 0;        ///< the count at the last tick (microsteps)
     double from = 0;         ///< the count the interpolation starts from (microsteps)
-    double change_tick = 0;  ///< the tick at which `count` last changed
+    double change_tick = 0;  ///< the tick at which `count` last changed (kLongAgo at rest)
     double interval = 0;     ///< ticks between the last two changes (≥ 1); 0: none yet
   };
 
@@ -83,11 +133,12 @@ struct MicrostepTable {
   /// The position (in microsteps, fractional with interpolation: multiples of microsteps/256)
   /// at tick `tick` (every T = k.isr_period), given the count there; updates the counter.
   double Position(const DriveConstants& dk, double count, long tick, Counter* c) const {
+    const double k = static_cast<double>(tick);
     if (!interpolate || microsteps >= 256) {
+      if (count != c->count) c->change_tick = k;  // for the standstill current
       c->count = c->from = count;
       return count;
     }
-    const double k = static_cast<double>(tick);
     if (count != c->count) {  // a step (or several) since the last tick: MicroPlyer restarts
       // The first step, and one after a standstill longer than the counter, is not spread.
       const double since = k - c->change_tick;  // ticks
@@ -111,14 +162,27 @@ struct MicrostepTable {
   /// scaled by CoolStep (Sample::current_scale), A.
   PhaseVector TickTargets(const DriveConstants& k, const Sample& in, Counter* c) const {
     const double count = Count(k, in.command.theta);
-    return in.current_scale * Targets(Position(k, count, in.tick, c));
+    const double position = Position(k, count, in.tick, c);
+    return in.current_scale * StandstillScale(k, in.tick, *c) * Targets(position);
   }
 
-  /// At rest at θcmd (rad): the counter on its count; the phase targets there, A.
+  /// The standstill current's fraction of run_current at tick `tick` (PowerDown), 1 while moving.
+  double StandstillScale(const DriveConstants& k, long tick, const Counter& c) const {
+    if (!power_down.Reduces()) return 1.0;
+    return power_down.Scale((static_cast<double>(tick) - c.change_tick) * k.isr_period);
+  }
+
+  /// At rest at θcmd (rad), stood still for ever: the counter on its count; the phase targets
+  /// there, at the standstill current, A.
   PhaseVector RestTargets(const DriveConstants& k, double theta_cmd, Counter* c) const {
     c->count = c->from = Count(k, theta_cmd);
-    return Targets(c->count);
+    c->change_tick = kLongAgo;
+    return power_down.HoldScale() * Targets(c->count);
   }
+
+  /// The tick of a drive's last step when it has stood still for ever (finite: stored states are
+  /// checked finite): 2^52 ticks back, 7 000 years at 50 µs.
+  static constexpr double kLongAgo = -4503599627370496.0;
 
   /// T(ψ) for position p in microsteps: the quarter wave mirrored (sine by default).
   double Entry(double position) const {
@@ -141,10 +205,13 @@ struct MicrostepTable {
 
   /// From the attributes; a `driver` chip (driver_chip.h) sets the interpolation default and
   /// rounds `run_current` to the current its sense resistor can set.
+  /// `clock_frequency` (Hz): a Trinamic drive's f_CLK, which times its standstill current
+  /// (ihold, iholddelay, tpowerdown); 0 for a drive without one, which refuses them.
   static MicrostepTable FromAttributes(const AttributeSource& a, const MotorParams& motor,
-                                       bool interpolate_by_default) {
+                                       bool interpolate_by_default, double clock_frequency = 0) {
     MicrostepTable t;
     const DriverChip* chip = FindDriver(a);
+    int irun = 31;  // the run current's scale: a chip's, else the full 31
     double run_current =
         a.Real(kAttrRunCurrent, motor.rated_current, AttributeSource::Rule::kPositive);  // A RMS
     if (chip != nullptr) {
@@ -171,6 +238,7 @@ struct MicrostepTable {
                              chip->name, r_sense, r.current));
       }
       run_current = r.current;
+      irun = r.cs;
       interpolate_by_default = chip->interpolate;
       if (chip->clock_frequency > 0)
         t.max_interpolated_interval = 1048576.0 / chip->clock_frequency;
@@ -182,12 +250,43 @@ struct MicrostepTable {
     if (auto q = a.Reals(kAttrCurrentTable, 0.0, 1.0, t.microsteps + 1, t.microsteps + 1)) {
       t.quarter = *q;
     }
+    t.power_down = ReadPowerDown(a, chip, irun, clock_frequency);
     return t;
   }
   static std::vector<const AttributeSpec*> Attributes() {
     return {&kAttrDriver,     &kAttrRunCurrent,  &kAttrSenseResistor,
-            &kAttrMicrosteps, &kAttrInterpolate, &kAttrCurrentTable};
+            &kAttrMicrosteps, &kAttrInterpolate, &kAttrCurrentTable,
+            &kAttrIhold,      &kAttrIholddelay,  &kAttrTpowerdown};
   }
+
+ private:
+  // The standstill current of a Trinamic drive (f_CLK > 0) from its attributes and the chip's
+  // defaults (Klipper's: TMC2209 without a chip); a drive without f_CLK refuses the attributes.
+  static PowerDown ReadPowerDown(const AttributeSource& a, const DriverChip* chip, int irun,
+                                 double clock_frequency) {
+    if (clock_frequency <= 0) {
+      for (const AttributeSpec* spec : {&kAttrIhold, &kAttrIholddelay, &kAttrTpowerdown}) {
+        if (const auto raw = a.Raw(*spec)) {
+          ThrowBad(*spec, *raw,
+                   "is a Trinamic chip's standstill current: it needs drive = spreadcycle or "
+                   "stealthchop (an A4988 or DRV8825 holds at its run current)");
+        }
+      }
+      return {};
+    }
+    const DriverChip& row = chip != nullptr ? *chip : DriverChips().front();  // TMC2209's
+    constexpr double kDetectClocks = 1048576.0;  // 2^20: DRV_STATUS.stst
+    constexpr double kDelayClocks = 262144.0;    // 2^18: TPOWERDOWN's and IHOLDDELAY's unit
+    PowerDown p;
+    p.irun = irun;
+    p.ihold = a.Integer(kAttrIhold, irun, 0, irun);
+    p.detect = kDetectClocks / clock_frequency;
+    p.delay = a.Integer(kAttrTpowerdown, row.tpowerdown, 0, 255) * kDelayClocks / clock_frequency;
+    p.per_step = a.Integer(kAttrIholddelay, row.iholddelay, 0, 15) * kDelayClocks / clock_frequency;
+    return p;
+  }
+
+ public:
 };
 
 }  // namespace mjstepper
