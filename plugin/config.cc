@@ -20,7 +20,8 @@ constexpr AttributeSpec kAttrMotor{
     "(PM, PK268-02B class, reconstructed: Kim's Table 1 is lost), `bodson1993`; or a catalogue "
     "motor from its datasheet (SPEC §8, Km = T_H/(√2·I_r), Kd4 = T_det): `qsh4218_35`, "
     "`qsh4218_41`, `qsh4218_51` (NEMA 17, 1.8°), `qsh5718_51`, `qsh5718_76` (NEMA 23, 1.8°), "
-    "`17hm19_2004s` (NEMA 17, 0.9°), `17hs19_2004s1` (NEMA 17, 1.8°); see \"Motor presets\"."};
+    "`17hm19_2004s` (NEMA 17, 0.9°), `17hs19_2004s1`, and PAROL6's `17hs24_2104s`, "
+    "`17hs16_2004s1`, `17hs08_1004s` (NEMA 17, 1.8°); see \"Motor presets\"."};
 constexpr AttributeSpec kAttrDrive{
     "drive", "name",
     "`current_microstep`; with a `driver` chip, the chip's (`spreadcycle`, "
@@ -105,6 +106,20 @@ constexpr AttributeSpec kAttrProfileJerk{"profile_jerk", "real", "1000", "rad/s�
                                          "Jerk limit of `scurve`; > 0."};
 constexpr AttributeSpec kAttrProfileStart{"profile_start", "real", "0", "s",
                                           "No move starts before this simulation time."};
+// The gear train (SPEC §12, src/core/transmission.h).
+constexpr AttributeSpec kAttrEfficiency{
+    "efficiency", "real", "1", "—",
+    "The gear train's efficiency driven forward (motor → load, τ·ω > 0): the load receives "
+    "efficiency·τ. A single planetary stage about 0.90 (cheap) to 0.95-0.98 (precision), a timing-"
+    "belt stage 0.95-0.98 (models/README.md, \"Gear trains\"); its Coulomb and viscous friction "
+    "are the joint's `frictionloss` and `damping`. Within ±1 rad/s of the rotor at rest it comes "
+    "in "
+    "linearly. In [0.01, 1]."};
+constexpr AttributeSpec kAttrBackdriveEfficiency{
+    "backdrive_efficiency", "real", "`efficiency`", "—",
+    "The gear train's efficiency driven back (load → motor, τ·ω < 0: lowering a load, braking): "
+    "the load must exert τ/backdrive_efficiency. Below `efficiency` for gear meshes (2 − "
+    "1/efficiency for a mesh whose loss is its friction: an estimate). In [0.01, 1]."};
 // Heat (SPEC §8, src/core/thermal.h).
 constexpr AttributeSpec kAttrHeat{
     "heat", "name", "`auto`", "—",
@@ -189,6 +204,8 @@ const std::vector<const AttributeSpec*>& DriveAttributes() {
                                                          &kAttrProfileAccel,
                                                          &kAttrProfileJerk,
                                                          &kAttrProfileStart,
+                                                         &kAttrEfficiency,
+                                                         &kAttrBackdriveEfficiency,
                                                          &kAttrHeat,
                                                          &kAttrAmbientTemperature,
                                                          &kAttrInitialTemperature,
@@ -327,6 +344,9 @@ DriveConfig Parse(const AttributeSource& a) {
   c.profile.max_accel = a.Real(kAttrProfileAccel, c.profile.max_accel, Rule::kPositive);
   c.profile.max_jerk = a.Real(kAttrProfileJerk, c.profile.max_jerk, Rule::kPositive);
   c.profile.start_time = a.Real(kAttrProfileStart, 0.0, Rule::kNonNegative);
+  c.transmission.efficiency = a.Real(kAttrEfficiency, 1.0, 0.01, 1.0);
+  c.transmission.backdrive_efficiency =
+      a.Real(kAttrBackdriveEfficiency, c.transmission.efficiency, 0.01, 1.0);
   if (c.profile.kind != ProfileKind::kNone && c.input != InputMode::kPosition) {
     ThrowBad(kAttrProfile, profile,
              "a motion profile moves to a target angle: it needs input = position (ctrl in rad)");

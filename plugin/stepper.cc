@@ -444,9 +444,12 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
     const double* values = Slot(m, d, instance, slot);
     const bool started = Drive::Started(values);
     if (started && coupling_ == Coupling::kConsistent) continue;  // the leader's solve writes it
-    d->actuator_force[a.outadr] =
+    const double torque =
         started ? drive_->StoredTorque(values, d->actuator_length[a.outadr])
                 : drive_->Torque(CurrentState(m, d, instance, slot), d->actuator_length[a.outadr]);
+    // The gear train's efficiency (transmission.h) on what the rotor hands the load.
+    d->actuator_force[a.outadr] =
+        torque * drive_->config().transmission.Scale(torque, d->actuator_velocity[a.outadr]);
   }
   if (leader) ConsistentForces(m, d);
 }
@@ -464,6 +467,7 @@ double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuat
       const double* values = other.Slot(m, d, instance, slot);
       if (Drive::Started(values)) {
         force = other.drive_->StoredTorque(values, d->actuator_length[output]);
+        force *= other.drive_->config().transmission.Scale(force, d->actuator_velocity[output]);
       }
     }
   }
@@ -496,6 +500,12 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
     const double theta = d->actuator_length[c.output];
     outputs[n] = c.output;
     std::tie(torque[n], stiffness[n]) = s.drive_->StoredTorqueAndStiffness(values, theta);
+    // The gear train's efficiency (transmission.h) scales what the rotor hands the load, and so
+    // its stiffness as the load sees it (the factor depends on the speed, not the angle).
+    const double scale =
+        s.drive_->config().transmission.Scale(torque[n], d->actuator_velocity[c.output]);
+    torque[n] *= scale;
+    stiffness[n] *= scale;
     ++n;
   }
   if (n == 0) return;

@@ -68,6 +68,10 @@ void Validate(const DriveConfig& c) {
   Require(c.compute_delay >= 0 && c.compute_delay < c.isr_period, "compute_delay", c.compute_delay,
           "must be >= 0 and < isr_period (s)");
   Require(c.rk4_step > 0, "rk4_step", c.rk4_step, "must be > 0 (s)");
+  Require(c.transmission.efficiency > 0 && c.transmission.efficiency <= 1, "efficiency",
+          c.transmission.efficiency, "must be in (0, 1]");
+  Require(c.transmission.backdrive_efficiency > 0 && c.transmission.backdrive_efficiency <= 1,
+          "backdrive_efficiency", c.transmission.backdrive_efficiency, "must be in (0, 1]");
   Require(c.encoder_counts >= 0, "encoder_counts", c.encoder_counts, "must be >= 0 (0: ideal)");
   Require(c.velocity_cutoff > 0 && std::isfinite(c.velocity_cutoff), "velocity_cutoff",
           c.velocity_cutoff, "must be finite and > 0 (Hz)");

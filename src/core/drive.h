@@ -43,6 +43,7 @@
 #include "core/power_stage.h"
 #include "core/sensors/velocity_estimator.h"
 #include "core/thermal.h"
+#include "core/transmission.h"
 #include "core/winding.h"
 
 namespace mjstepper {
@@ -77,6 +78,9 @@ struct DriveConfig {
   /// Needs windings (not `ideal_current`) and the exact solver (the kRk4 reference has no
   /// energies).
   std::optional<HeatParams> heat;
+  /// The gear train's efficiency (transmission.h), applied by a simulator to the torque it hands
+  /// the load; the drive's own torques and energies are the motor's.
+  Transmission transmission;
 };
 
 /// Throws std::invalid_argument naming the field, value and rule.

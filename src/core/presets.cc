@@ -107,6 +107,22 @@ constexpr const char* kQsh5718Heat =
 constexpr const char* kOmcHeat =
     "estimate: QSH4218-51's time constants (same 47-48 mm body), 0.40 kg, +80 K at the rated "
     "current (class-B sheets' figure)";
+// PAROL6's motors (issue 29; its BOM, BOM/PAROL6_BOM_4_4_2026.pdf, names the StepperOnline
+// models; firmware constants.h's currents put them on the joints, SPEC §12): T_H, I_r, R, L from
+// Source Robotics' STEPFOC docs (tested_motors.md) and klipper_tmc_autotune's motor_database.cfg,
+// which agree; J from stepper-simulator's database only (unconfirmed: it swaps 17HS08's R and L);
+// detent unpublished (0). Heat: QSH4218's time constants for the nearest body length (40 mm:
+// QSH4218-41's 20/22 min) or extended by 2 min per body step beyond the family (60 mm: 24/28; 20
+// mm: 16/18: estimates), STEPFOC's masses, the class-B +80 K at the rated current (estimate).
+constexpr const char* kParol6 =
+    "StepperOnline (PAROL6's BOM): T_H, I_r, R, L from Source Robotics' STEPFOC tested_motors and "
+    "klipper_tmc_autotune motor_database.cfg (agree); J from stepper-simulator's database "
+    "(unconfirmed); detent not published";
+constexpr const char* kParol6Heat =
+    "estimate: QSH4218 time constants by body length (40 mm as QSH4218-41; 20 and 60 mm "
+    "extended by 2 min a step), STEPFOC's mass, +80 K at the rated current (class-B sheets' "
+    "figure)";
+
 constexpr double kMinute = 60.0;  // s
 const CatalogueRow kCatalogue[] = {
     {"qsh4218_35",
@@ -144,6 +160,21 @@ const CatalogueRow kCatalogue[] = {
      {kOmc, 1.8, 2.0, 0.59, 1.4, 3.0e-3, 82e-7, 0.0},
      {0.648, 4.71, 18.5, 298},
      {kOmcHeat, 22 * kMinute, 25 * kMinute, 80, 0.40}},
+    {"17hs24_2104s",
+     "NEMA 17, 1.8°, 2.1 A, 0.65 N·m, 60 mm (StepperOnline 17HS24-2104S; PAROL6 J1, J2)",
+     {kParol6, 1.8, 2.1, 0.65, 1.6, 3.0e-3, 148e-7, 0.0},
+     {0.600, 3.65, 23.1, 433},
+     {kParol6Heat, 24 * kMinute, 28 * kMinute, 80, 0.50}},
+    {"17hs16_2004s1",
+     "NEMA 17, 1.8°, 2.0 A, 0.45 N·m, 40 mm (StepperOnline 17HS16-2004S1; PAROL6 J3-J5)",
+     {kParol6, 1.8, 2.0, 0.45, 1.1, 2.6e-3, 54e-7, 0.0},
+     {0.639, 6.18, 14.3, 198},
+     {kParol6Heat, 20 * kMinute, 22 * kMinute, 80, 0.31}},
+    {"17hs08_1004s",
+     "NEMA 17, 1.8°, 1.0 A, 0.16 N·m, 20 mm (StepperOnline 17HS08-1004S; PAROL6 J6)",
+     {kParol6, 1.8, 1.0, 0.16, 3.7, 4.5e-3, 22e-7, 0.0},
+     {0.895, 7.21, 6.47, 143},
+     {kParol6Heat, 16 * kMinute, 18 * kMinute, 80, 0.14}},
 };
 
 }  // namespace

@@ -157,7 +157,7 @@ TEST(CatalogueHeat, NetworksReproduceTheirSheets) {
         << name;
     EXPECT_GT(std::string(sheet.source).size(), 20u) << name;
   }
-  EXPECT_EQ(count, 7);
+  EXPECT_EQ(count, 10);
 }
 
 // A chopper drive on a catalogue motor as a user gets it with drive = chopper (run_current = the

@@ -100,7 +100,8 @@ class WheelInAFreshEnvironment(unittest.TestCase):
         self.assertEqual(set(mjstepper.PRESETS),
                          {"tsui2009", "kim2016", "bodson1993",  # the papers (SPEC §4)
                           "qsh4218_35", "qsh4218_41", "qsh4218_51", "qsh5718_51", "qsh5718_76",
-                          "17hm19_2004s", "17hs19_2004s1"})  # catalogue motors (SPEC §8)
+                          "17hm19_2004s", "17hs19_2004s1",  # catalogue motors (SPEC §8)
+                          "17hs24_2104s", "17hs16_2004s1", "17hs08_1004s"})  # PAROL6's (§12)
         # A catalogue motor's Km comes from its datasheet: T_H/(√2·I_r), QSH5718-76 1.89 N·m, 2.8 A.
         self.assertAlmostEqual(mjstepper.PRESETS["qsh5718_76"]["torque_constant"][0],
                                1.89 / (2 ** 0.5 * 2.8), places=12)
