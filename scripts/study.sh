@@ -13,7 +13,9 @@
 # docs/studies/drivers.md, renders/drivers/*.png and renders/drivers/belt_axis.mp4; then the 6-DOF
 # arm sizing study (models/arm6.xml: a pick-and-place cycle sized with two motors per joint), which
 # writes docs/studies/arm6.md, renders/arm6/*.png, *.csv and renders/arm6/pick_place_smaller.mp4;
-# and prints a summary. See renders/README.md.
+# then the real PAROL6 study (models/parol6.xml: sizing, heat with and without IHOLD, the payload
+# at which each joint first slips, settled and aligned), which writes docs/studies/parol6.md and
+# renders/parol6/; and prints a summary. See renders/README.md.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bash "$here/scripts/build.sh" mjstepper_cli mjstepper
@@ -29,4 +31,5 @@ SECONDS=0
 .venv/bin/python src/tools/python/study_arm.py
 .venv/bin/python src/tools/python/study_drivers.py
 .venv/bin/python src/tools/python/study_arm6.py
+.venv/bin/python src/tools/python/study_parol6.py
 echo "study done in ${SECONDS} s (after the build)"

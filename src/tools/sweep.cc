@@ -96,26 +96,14 @@ bool Slipped(const mjData* d, const StepperActuator& s) {
   return cycles != 0 || std::abs(signals[kAngle] - kTwoPi * cycles) > 1.25 * std::numbers::pi;
 }
 
-// Whether the rotor sits where its torque still rises as it falls behind: the stiffness
-// −∂τm/∂θ = Nr·Km·Re(e^{−jx}·i) (S-4, x = Nr·θ) is positive, the current vector within π/2 of the
-// rotor's. With a current drive that is |δ − 2πk| < π/2; a voltage drive's current (StealthChop)
-// lags its command, and its stable side is the current's, not the command's.
-bool OnStableSide(const mjData* d, const StepperActuator& s) {
-  static const int kIa = SignalIndex("current_a"), kIb = SignalIndex("current_b"),
-                   kThetaCmd = SignalIndex("theta_cmd"), kError = SignalIndex("position_error");
-  const double* signals = d->sensordata + s.sensor_adr;
-  const double x = s.config.motor.rotor_teeth * (signals[kThetaCmd] + signals[kError]);  // rad
-  return signals[kIa] * std::cos(x) + signals[kIb] * std::sin(x) >= 0;
-}
-
 // One pull-out run: to speed, settle, then a load torque rising at o.rate against the motion
-// until the first slip. The pull-out torque is the load the rotor last held on the stable side
-// (OnStableSide; for a closed-loop drive, which holds by feedback, the step before the slip), not
-// the load when the slip is counted (5π/4 later: at 0.5 N·m/s that read 2-5 % above the holding
-// torque, issue 29), and at most the motor's own torque then, averaged over kPullOutWindow: a
-// rising load overshoots the fold at δ = π/2 by the time the rotor's inertia takes to follow, while
-// the motor's torque never exceeds Km·|i| (S-4), so at standstill the curve never reads above the
-// holding torque √2·Km·I.
+// until the first slip. The pull-out torque is the load when the slip is counted (5π/4 past the
+// cell's centre), at most the largest 10 ms mean (kPullOutWindow) of the motor's own torque along
+// the load since the load began: a rising load overshoots the fold by the time the rotor's inertia
+// takes to leave it (at 0.5 N·m/s that read 2-5 % above the holding torque, issue 29), while the
+// motor's torque never exceeds Km·|i| (S-4), so at standstill the curve never reads above the
+// holding torque. (At speed the mean motor torque also carries the bench's damping B·ω, and the
+// load at the slip is then the smaller.)
 PullOutPoint RunPullOut(const mjModel* m, const StepperActuator& s, double speed,
                         const PullOutOptions& o) {
   SpeedRun run(m, s, speed, o.acceleration);
@@ -129,10 +117,7 @@ PullOutPoint RunPullOut(const mjModel* m, const StepperActuator& s, double speed
   std::vector<double> ring(window, 0.0);
   size_t filled = 0;
   double ring_sum = 0;
-  double held_load = 0, held_torque = 0;  // N·m, at the last stable step
-  // A closed-loop drive's load angle is its tracking error, not its torque angle: it holds until
-  // the slip is found.
-  const bool open_loop = CountsSlips(s.config.controller);
+  double most_torque = 0;  // N·m, the largest mean motor torque along the load since it began
   PullOutPoint p{.speed = speed};
   while (true) {
     const double t = d->time;
@@ -153,12 +138,11 @@ PullOutPoint RunPullOut(const mjModel* m, const StepperActuator& s, double speed
     ring_sum += motor - ring[filled % window];
     ring[filled % window] = motor;
     ++filled;
-    if (!open_loop || OnStableSide(d, s)) {
-      held_load = load;
-      held_torque = ring_sum / static_cast<double>(std::min(filled, window));
+    if (t >= load_start) {
+      most_torque = std::max(most_torque, ring_sum / static_cast<double>(std::min(filled, window)));
     }
     if (Slipped(d, s)) {
-      p.torque = t < load_start ? 0.0 : std::max(0.0, std::min(held_load, held_torque));
+      p.torque = t < load_start ? 0.0 : std::min(load, most_torque);
       p.slipped_unloaded = t < load_start;
       break;
     }
