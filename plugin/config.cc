@@ -33,9 +33,11 @@ constexpr AttributeSpec kAttrInput{
     "`velocity`: ctrl is dθcmd/dt in rad/s; the drive integrates θcmd, starting at the rotor's "
     "angle. `steps` (STEP/DIR, SPEC §8): ctrl is the motion controller's microstep count n at "
     "the drive's `microsteps` M (an integer, as a driver counts pulses; θcmd = n·2π/(4·Nr·M)); "
-    "the pulses from one step's count to the next are spread evenly over the step. Needs a drive "
-    "with a microstep table (`chopper`, or `current_microstep`/`ideal_current` with `microsteps` "
-    "≥ 1)."};
+    "the pulses from one step's count to the next are spread evenly over the step. A chip drive "
+    "(`chopper`, `spreadcycle`, `stealthchop`) moves its table at each pulse's own time, an event "
+    "of its own; `current_microstep` and `ideal_current` read the count at their interrupts (the "
+    "DSP's timing). Needs a drive with a microstep table (`chopper`, `spreadcycle`, "
+    "`stealthchop`, or `current_microstep`/`ideal_current` with `microsteps` ≥ 1)."};
 constexpr AttributeSpec kAttrRotorTeeth{"rotor_teeth", "integer", "preset (50)", "—",
                                         "Nr (\"pole pairs\" in Tsui): x = Nr·θ, full step "
                                         "2π/(4·Nr)."};

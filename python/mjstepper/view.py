@@ -210,15 +210,18 @@ def main(argv=None):
                     start_wall, start_sim = time.monotonic(), data.time
                 s = data.sensordata[sensor_of[a]:sensor_of[a] + len(SIGNALS)]
                 get = dict(zip(SIGNALS, s))
-                viewer.set_texts((mujoco.mjtFontScale.mjFONTSCALE_150,
-                                  mujoco.mjtGridPos.mjGRID_TOPLEFT,
-                                  f"stepper {current}\ncommand (slider)\nlost steps\nwinding",
-                                  f"{len(names)} in the model\n"
-                                  f"{data.ctrl[model.actuator_ctrladr[a]]:.4g}\n"
-                                  f"{get['lost_steps']:g}\n{get['winding_temperature']:.1f} C"))
-                if not args.no_plots and viewer.viewport is not None:
-                    drawn = plots.update()
-                    viewer.set_figures(plots.layout(viewer.viewport))
+                texts = (mujoco.mjtFontScale.mjFONTSCALE_150, mujoco.mjtGridPos.mjGRID_TOPLEFT,
+                         f"stepper {current}\ncommand (slider)\nlost steps\nwinding",
+                         f"{len(names)} in the model\n"
+                         f"{data.ctrl[model.actuator_ctrladr[a]]:.4g}\n"
+                         f"{get['lost_steps']:g}\n{get['winding_temperature']:.1f} C")
+            # Outside the lock: set_texts and set_figures wait for the render thread to take them,
+            # and the render thread waits for the lock (with it held, the view hung at random,
+            # spinning a core).
+            viewer.set_texts(texts)
+            if not args.no_plots and viewer.viewport is not None:
+                drawn = plots.update()
+                viewer.set_figures(plots.layout(viewer.viewport))
             viewer.sync()
             time.sleep(1 / 60)
         if args.report:

@@ -604,6 +604,31 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     };
     predict(0);
     predict(1);
+    // STEP/DIR edges (issue 29, item 7): on a drive whose unit has an Edge (the chip drives), the
+    // count moves where θcmd crosses a half microstep (Count rounds; the pulses of a step are
+    // spread evenly over it, so x = θcmd/step angle is linear and integer at the step's ends),
+    // each crossing an event that moves the table at once, not at the next interrupt. The PI
+    // drives keep reading the count at their interrupts (the DSP's timing).
+    constexpr bool kEdges =
+        requires(const C& u, const DriveConstants& k, const PowerStage& ps, typename C::State* st) {
+      u.Edge(k, 0.0, 0.0, 1.0, ps, st);
+    };
+    const double edge_rate = step_angle_ > 0 ? omega_cmd / step_angle_ : 0.0;  // microsteps/s
+    const bool edges = kEdges && steps && edge_rate != 0 &&
+                       std::abs(target - theta_cmd0) / step_angle_ <= kMaxEdgesPerAdvance;
+    // The next crossing after time `from` (the step's frame), or never.
+    auto next_edge = [&](double from) {
+      if (!edges) return kNever;
+      const double x = command_at(from).theta / step_angle_;  // microsteps
+      const double sign = edge_rate > 0 ? 1.0 : -1.0;
+      double half = edge_rate > 0 ? std::floor(x + 0.5) + 0.5 : std::ceil(x - 0.5) - 0.5;
+      if (!((half - x) / edge_rate > eps)) half += sign;  // on a crossing now: the next one
+      return from + (half - x) / edge_rate;
+    };
+    double t_edge = next_edge(start);
+    const long max_events =
+        kMaxEventsPerAdvance +
+        (edges ? static_cast<long>(std::abs(target - theta_cmd0) / step_angle_) + 2 : 0L);
     // Every event moves t forward by at least eps or is the step's last, and n only grows: with
     // h <= kMaxTicksPerAdvance·T (Advance) the loop ends well before its hard stop. (A switching
     // bridge's events each start an on-time, an off-time or a decay of its own length, bounded
@@ -613,20 +638,43 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
       const double t_apply = s->pending ? apply_at : kNever;
       const double t_tick = anchor + n * period;             // t_k − origin
       const int p_next = t_switch[1] < t_switch[0] ? 1 : 0;  // the phase that switches first
-      const double t_event = std::min({t_apply, t_tick, t_switch[p_next]});
+      const double t_event = std::min({t_apply, t_tick, t_switch[p_next], t_edge});
       // Events in [t0, t1 − eps] belong to this step; one within eps of t1 is the next step's, so
       // that a tick at a step boundary samples the command set for the step that starts there.
       if (t_event > end - eps) {
         integrate_to(end);
         break;
       }
-      if (++events > kMaxEventsPerAdvance) {  // the hard stop: hold the voltage to the step's end
+      if (++events > max_events) {  // the hard stop: hold the voltage to the step's end
         integrate_to(end);
         bounded = false;
         break;
       }
       integrate_to(std::min(t_event, end));
-      if (t_switch[p_next] < std::min(t_apply, t_tick)) {  // a bridge switches (switching.h)
+      if (t_edge <= std::min({t_apply, t_tick, t_switch[p_next]})) {  // a STEP edge: at once
+        if constexpr (kEdges) {
+          // The count just past the crossing, at the tick label of this instant.
+          const double count =
+              std::round(command_at(t_edge).theta / step_angle_ + (edge_rate > 0 ? 0.25 : -0.25));
+          const double label = static_cast<double>(k_anchor) + (t - anchor) / period;
+          const TickOutput out =
+              controller.Edge(constants_, count, label, s->current_scale, stage_, &unit);
+          s->current_ref_a = out.current_ref.real();
+          s->current_ref_b = out.current_ref.imag();
+          s->pending = 0;  // the edge's output is newer than the last tick's, not yet applied
+          if constexpr (SwitchingUnit<C>) {
+            C::SetTarget(0, out.current_ref.real(), &unit);
+            C::SetTarget(1, out.current_ref.imag(), &unit);
+            switch_phase(0, SwitchReason::kTarget);
+            switch_phase(1, SwitchReason::kTarget);
+            predict(0);
+            predict(1);
+          } else {
+            voltage = out.bridge.voltage;
+          }
+        }
+        t_edge = next_edge(t);
+      } else if (t_switch[p_next] < std::min(t_apply, t_tick)) {  // a bridge switches
         if constexpr (SwitchingUnit<C>) {
           const PhaseSwitch& sw = unit.phase[p_next];
           const bool timed = sw.has_until != 0 && sw.until - origin <= t + eps;

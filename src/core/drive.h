@@ -53,7 +53,9 @@ enum class InputMode {
   kVelocity,  ///< the command is dθcmd/dt, rad/s; the drive integrates θcmd
   kSteps,     ///< STEP/DIR (SPEC §8): the command is the motion controller's microstep count n
               ///< at the drive's `microsteps` M, θcmd = n·2π/(4·Nr·M); the pulses between two
-              ///< counts are spread evenly over the step, θcmd moving linearly between them
+              ///< counts are spread evenly over the step, θcmd moving linearly between them; a
+              ///< unit with an Edge (the chip drives) moves its table at each pulse, an event of
+              ///< its own; the others read the count at their interrupts (the DSP's timing)
 };
 
 enum class WindingSolver { kExact, kRk4 };  ///< kRk4 only for reference runs in tests
@@ -120,6 +122,11 @@ inline constexpr double kMaxTicksPerAdvance = 10.0 * kMaxInterruptsPerStep;
 /// The hard stop of one Advance's event loop: each interrupt is two events (its tick, then its
 /// voltage's apply at t_k + D), plus one pending apply and round-off at the step's two ends.
 inline constexpr long kMaxEventsPerAdvance = 2 * static_cast<long>(kMaxTicksPerAdvance) + 8;
+
+/// STEP/DIR edges (input = steps on a chip drive) are events of their own, one per microstep the
+/// count moves within a step; a step that moves it more than this many (a jump, not a pulse
+/// train) is read at the ticks instead, so that one Advance stays bounded.
+inline constexpr double kMaxEdgesPerAdvance = 100000;
 
 /// The clock re-anchors at its next tick once that many ticks passed since its anchor (2^32: at
 /// 20 kHz, 2.5 days of steps that never start on a tick), so that n·T is exact arithmetic on a

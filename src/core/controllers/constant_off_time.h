@@ -123,6 +123,14 @@ struct ConstantOffTime {
   }
 
   /// At each tick: the step count → the table's targets (the comparators' trip points).
+  /// A STEP edge (input = steps) at tick label `tick`, the count now `count`: the phases' new
+  /// targets at once (step_table.h, EdgeTargets), A.
+  TickOutput Edge(const DriveConstants& k, double count, double tick, double current_scale,
+                  const PowerStage&, State* s) const {
+    return {.bridge = {},
+            .current_ref = table.EdgeTargets(k, count, tick, current_scale, &s->counter)};
+  }
+
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage&, State* s) const {
     return {.bridge = {}, .current_ref = table.TickTargets(k, in, &s->counter)};
   }

@@ -45,12 +45,6 @@ inline const char* ControllerName(const Controller& c) {
   return std::visit([](const auto& unit) { return std::decay_t<decltype(unit)>::kName; }, c);
 }
 
-/// Whether the controller runs open loop and counts its slips (a whole electrical cycle lost or
-/// won); the closed-loop ones hold their rotor by feedback.
-inline bool CountsSlips(const Controller& c) {
-  return std::visit([](const auto& unit) { return std::decay_t<decltype(unit)>::kCountsSlips; }, c);
-}
-
 /// How the controller's holding stiffness is obtained, e.g. "Nr·Km·I, T(1)".
 inline const char* StiffnessFormula(const Controller& c) {
   return std::visit(

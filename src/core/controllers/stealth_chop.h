@@ -246,6 +246,21 @@ struct StealthChop {
     return {.bridge = stage.Apply(v), .current_ref = target};
   }
 
+  /// A STEP edge (input = steps) at tick label `tick`, the count now `count`: the voltage vector
+  /// turns to the table's new entry at once, at the amplitude the regulator holds (its counters
+  /// and TSTEP move at the ticks). Returns the bridge's output and the table's current target.
+  TickOutput Edge(const DriveConstants& k, double count, double tick, double current_scale,
+                  const PowerStage& stage, State* s) const {
+    const double position = table.Position(k, count, tick, &s->counter);  // microsteps
+    const double peak =
+        current_scale * table.StandstillScale(k, tick, s->counter) * table.peak_current;  // A
+    const double velocity_term = 256 / std::clamp(s->tstep, 1.0, kStandstillClocks - 1);
+    const PhaseVector direction = table.Targets(position) / table.peak_current;
+    const PhaseVector v =
+        Amplitude(*s, velocity_term) * VoltsPerUnit(stage.bus_voltage) * direction;
+    return {.bridge = stage.Apply(v), .current_ref = peak * direction};
+  }
+
   /// At rest on the table's entry at θcmd, after the automatic tuning's standstill phase (AT#1):
   /// with autoscale the amplitude holds the target current, PWM_OFS_AUTO = R·I*/(V per unit),
   /// PWM_SCALE_AUTO = 0; without, the current is PWM_OFS's, PWM_OFS·(V per unit)/R. Either way

@@ -131,9 +131,10 @@ struct MicrostepTable {
   double max_interpolated_interval = 1048576.0 / 12e6;
 
   /// The position (in microsteps, fractional with interpolation: multiples of microsteps/256)
-  /// at tick `tick` (every T = k.isr_period), given the count there; updates the counter.
-  double Position(const DriveConstants& dk, double count, long tick, Counter* c) const {
-    const double k = static_cast<double>(tick);
+  /// at tick `tick` (every T = k.isr_period; fractional at a STEP edge between two ticks), given
+  /// the count there; updates the counter.
+  double Position(const DriveConstants& dk, double count, double tick, Counter* c) const {
+    const double k = tick;
     if (!interpolate || microsteps >= 256) {
       if (count != c->count) c->change_tick = k;  // for the standstill current
       c->count = c->from = count;
@@ -142,9 +143,11 @@ struct MicrostepTable {
     if (count != c->count) {  // a step (or several) since the last tick: MicroPlyer restarts
       // The first step, and one after a standstill longer than the counter, is not spread.
       const double since = k - c->change_tick;  // ticks
-      c->interval = c->interval > 0 && since * dk.isr_period <= max_interpolated_interval
-                        ? std::max(1.0, since)
-                        : 1.0;
+      // (Between STEP edges, which are events of their own, the interval may be a fraction of a
+      // tick; between ticks it is a whole number of them.)
+      c->interval =
+          c->interval > 0 && since > 0 && since * dk.isr_period <= max_interpolated_interval ? since
+                                                                                             : 1.0;
       c->from = c->count;
       c->count = count;
       c->change_tick = k;
@@ -167,9 +170,19 @@ struct MicrostepTable {
   }
 
   /// The standstill current's fraction of run_current at tick `tick` (PowerDown), 1 while moving.
-  double StandstillScale(const DriveConstants& k, long tick, const Counter& c) const {
+  double StandstillScale(const DriveConstants& k, double tick, const Counter& c) const {
     if (!power_down.Reduces()) return 1.0;
-    return power_down.Scale((static_cast<double>(tick) - c.change_tick) * k.isr_period);
+    return power_down.Scale((tick - c.change_tick) * k.isr_period);
+  }
+
+  /// A STEP edge at tick label `tick` (fractional: between two interrupts) that brings the count
+  /// to `count`: the chip's microstep counter moves on the edge itself (TMC2209 datasheet Rev. 1.09
+  /// §13.3, "for each active edge on STEP"; the A4988's and DRV8825's translators likewise), so
+  /// the targets follow at once, scaled by CoolStep (`current_scale`) and the standstill current.
+  PhaseVector EdgeTargets(const DriveConstants& k, double count, double tick, double current_scale,
+                          Counter* c) const {
+    const double position = Position(k, count, tick, c);
+    return current_scale * StandstillScale(k, tick, *c) * Targets(position);
   }
 
   /// At rest at θcmd (rad), stood still for ever: the counter on its count; the phase targets
