@@ -272,11 +272,12 @@ class StepTimes:
         return np.where(i > 0, self.counts[np.maximum(i - 1, 0)], 0.0)[()]
 
 
-# The experiments (run, sweep, map, pullout, identify, resonance_test, size) over the C++ engine, which
+# The experiments (run, sweep, map, pullout, identify, resonance_test, size, attach) over the C++
+# engine, which
 # finds this package's plugin library, and plots with this interpreter and the package's script.
 from . import _engine  # noqa: E402
 _engine.set_installation(LIBRARY, sys.executable,
                          os.path.join(os.path.dirname(os.path.abspath(__file__)), "_plot.py"))
 from ._experiments import (  # noqa: E402,F401
-    Identified, ResonanceTest, RunResult, Sizing, Table, identify, map, pullout, resonance_test,
-    run, size, sweep)
+    Identified, ResonanceTest, RunResult, Sizing, Table, attach, identify, map, pullout,
+    resonance_test, run, size, sweep)

@@ -118,7 +118,7 @@ def speeds_text(speeds):
 
 # The options whose values are text (paths, names, profiles, --set items); every other takes
 # numbers only (a str there is a TypeError, as a list where a number belongs).
-_TEXT_OPTIONS = {"ctrl", "log", "keyframe", "start", "render", "frames", "camera", "plot", "accel_log",
+_TEXT_OPTIONS = {"ctrl", "log", "keyframe", "start", "stepper", "meshdir", "render", "frames", "camera", "plot", "accel_log",
                  "accelerometer", "actuator", "out", "speeds", "vary", "axis", "dyno", "set",
                  "overlay", "move", "speed", "accel"}
 
@@ -268,6 +268,27 @@ def _joint_values(name, values, unit):
     if isinstance(values, numbers.Real) and not isinstance(values, (bool, np.bool_)):
         values = [values]
     return ",".join(repr(float(_number(name, v))) for v in values) + unit
+
+
+def attach(robot, steppers, out, *, meshdir=None):
+    """`mjstepper attach`: puts a stepper on each joint of `robot` (an MJCF or URDF path) named in
+    `steppers`, {joint: {"motor": "17hs24_2104s", "driver": "tmc5160", "gear": 6.4, ...}} (gear
+    sets the actuator's gear; every other key is a plugin attribute, plugin/README.md), and writes
+    the MJCF `out` with the motors' rotor inertia as armature, the timestep the rule recommends and
+    a keyframe "start". `meshdir`: the robot's mesh folder, for a URDF's package:// URIs. Returns
+    {"out": path, "timestep": s, "joints": [...]}; errors name the joint and the fix."""
+    items = []
+    for joint, spec in steppers.items():
+        joint = _text("steppers", joint)
+        pairs = []
+        for key, value in spec.items():
+            key = _text(f"steppers[{joint!r}]", key)
+            if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
+                value = repr(float(value))
+            pairs.append(f"{key}={_text(f'steppers[{joint!r}][{key!r}]', value)}")
+        items.append(f"{joint}:" + ",".join(pairs))
+    args = command_line("attach", [robot], dict(stepper=items, out=out, meshdir=meshdir))
+    return dict(_engine.compute(args, False))
 
 
 def size(model, move, *, speed=None, accel=None, dwell=None, cycles=None, pullout_points=None,

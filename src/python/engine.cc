@@ -228,6 +228,12 @@ nb::dict ToPython(const Command& c, const Result& result) {
           out["pullout"] = curves;
           out["cycle_time"] = r.cycle_time;
           out["cycles"] = r.cycles;
+        } else if constexpr (std::is_same_v<R, AttachResult>) {
+          nb::list joints;
+          for (const std::string& j : r.joints) joints.append(nb::str(j.c_str()));
+          out["out"] = r.out;
+          out["timestep"] = r.timestep;
+          out["joints"] = joints;
         } else if constexpr (std::is_same_v<R, Identified>) {
           out["harmonics"] =
               Columns(kHarmonicColumns, std::span<const DetentHarmonic>(r.harmonics));

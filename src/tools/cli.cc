@@ -249,6 +249,28 @@ CommandLine::CommandLine(bool out_optional)
     sub->add_flag("--quiet", quiet_, "no progress line");
   }
 
+  attach_ = app_.add_subcommand(
+      "attach",
+      "put steppers on the joints of any MJCF or URDF robot: writes an MJCF with a stepper "
+      "actuator on each named joint (its rotor inertia as armature), the timestep the rule "
+      "recommends and a keyframe 'start'");
+  attach_->add_option("robot", c.attach.robot, "the robot, MJCF or URDF")
+      ->required()
+      ->check(CLI::ExistingFile);
+  attach_
+      ->add_option("--stepper", attach_steppers_,
+                   "JOINT:key=value,... (repeatable): the joint's stepper, e.g. "
+                   "L1:motor=17hs24_2104s,driver=tmc5160,drive=stealthchop,gear=6.4,"
+                   "run_current=1.7,ihold=21,microsteps=32; gear= sets the actuator's gear, "
+                   "every other key is a plugin attribute (plugin/README.md)")
+      ->required();
+  attach_->add_option("--out", c.attach.out, "the MJCF written")->required();
+  attach_
+      ->add_option("--meshdir", c.attach.meshdir,
+                   "the robot's mesh folder, each mesh by its file's base name (for a URDF's "
+                   "package:// URIs)")
+      ->check(CLI::ExistingDirectory);
+
   plot_ = app_.add_subcommand("plot", "PNG plot of run logs or sweep CSVs");
   plot_->add_option("csv", c.plot_csvs, "CSV written by run, sweep or pullout")
       ->required()
@@ -437,6 +459,16 @@ void CommandLine::Check() {
     if (!c.out.empty()) outputs.emplace_back("--out", c.out + ".csv");
     CheckDistinctOutputs(outputs);
     for (const auto& [option, path] : outputs) c.outputs.push_back(path);
+    return;
+  }
+  if (*attach_) {
+    c.kind = CommandKind::kAttach;
+    c.attach.steppers.clear();
+    for (const std::string& item : attach_steppers_) {
+      c.attach.steppers.push_back(ParseAttachStepper(item));
+    }
+    CheckDistinctOutputs({{"robot", c.attach.robot}, {"--out", c.attach.out}});
+    c.outputs = {c.attach.out};
     return;
   }
   if (*plot_) {

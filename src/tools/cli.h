@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "attach.h"
 #include "identify.h"
 #include "options.h"
 #include "output_file.h"
@@ -26,6 +27,7 @@ enum class CommandKind {
   kIdentify,
   kResonance,
   kSize,
+  kAttach,
   kPlot,
   kInfo,
   kTables
@@ -42,6 +44,7 @@ struct Command {
   IdentifyOptions identify;
   ResonanceOptions resonance;
   SizeOptions size;
+  AttachOptions attach;
   std::string speeds_text;  ///< --speeds as given (sweep, map, pullout, identify)
   std::string out;          ///< output prefix (sweep, map, pullout) or PNG (plot)
   std::vector<std::string> plot_csvs, plot_labels;
@@ -78,10 +81,11 @@ class CommandLine {
 
   CLI::App app_;
   Command c_;
-  CLI::App *run_, *sweep_, *map_, *pullout_, *identify_, *resonance_, *size_cmd_, *plot_, *info_,
-      *tables_;
+  CLI::App *run_, *sweep_, *map_, *pullout_, *identify_, *resonance_, *size_cmd_, *attach_, *plot_,
+      *info_, *tables_;
   // Raw texts parsed by Check.
-  std::vector<std::string> ctrl_, sets_, masses_, loads_, moves_, move_speeds_, move_accels_;
+  std::vector<std::string> ctrl_, sets_, masses_, loads_, moves_, move_speeds_, move_accels_,
+      attach_steppers_;
   std::string size_ = "1280x720", vary_, axis_;
   double accel_per_hz_ = 75;  // mm/s² per Hz, as Klipper states it
   int accel_range_ = 16;      // g

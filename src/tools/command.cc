@@ -229,6 +229,11 @@ void PrintResult(const Command& c, const Result& result, double seconds) {
                 best.shaper.name, best.frequency, o.axis, best.shaper.name, o.axis, best.frequency);
           }
           fmt::print("  wrote {0}_raw.csv\n  wrote {0}_psd.csv\n  wrote {0}.png\n", c.out);
+        } else if constexpr (std::is_same_v<R, AttachResult>) {
+          fmt::print(
+              "steppers on {} joint(s) of {}: {}; timestep {:.3g} s (the rule's); "
+              "keyframe 'start'\n  wrote {}\n",
+              r.joints.size(), c.attach.robot, fmt::join(r.joints, ", "), r.timestep, r.out);
         } else if constexpr (std::is_same_v<R, SizeResult>) {
           PrintSizeTable(r, std::cout);
           fmt::print("  {:.1f} s; wrote {}.csv\n", seconds, c.out);
@@ -318,6 +323,8 @@ Result Execute(const Command& c, std::ostream& progress) {
       return RunResonanceTest(c.resonance, progress);
     case CommandKind::kSize:
       return Size(c.size, progress);
+    case CommandKind::kAttach:
+      return Attach(c.attach);
     default:
       throw std::logic_error("Execute: this subcommand computes no result");
   }

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "attach.h"
 #include "core/attributes.h"
 #include "core/command_profile.h"
 #include "core/units.h"
@@ -251,6 +252,45 @@ std::vector<double> ParseJointValues(const std::string& option, const std::strin
     }
   }
   return out;
+}
+
+// `mjstepper attach`'s --stepper (attach.h); here, with the other option parsers, free of MuJoCo.
+AttachStepper ParseAttachStepper(const std::string& text) {
+  const size_t colon = text.find(':');
+  AttachStepper s;
+  s.joint = text.substr(0, colon);
+  if (colon == std::string::npos || s.joint.empty()) {
+    throw std::invalid_argument(
+        fmt::format("--stepper {}: write JOINT:key=value,..., e.g. "
+                    "L1:motor=17hs24_2104s,driver=tmc5160,gear=6.4,run_current=1.7",
+                    text));
+  }
+  std::string rest = text.substr(colon + 1);
+  size_t start = 0;
+  while (start <= rest.size()) {
+    const size_t comma = std::min(rest.find(',', start), rest.size());
+    const std::string item = rest.substr(start, comma - start);
+    start = comma + 1;
+    if (item.empty()) continue;
+    const size_t eq = item.find('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == item.size()) {
+      throw std::invalid_argument(
+          fmt::format("--stepper {}: '{}' is not key=value (joint '{}')", text, item, s.joint));
+    }
+    const std::string key = item.substr(0, eq), value = item.substr(eq + 1);
+    if (key == "gear") {
+      if (!ParseFiniteDouble(value, &s.gear) || s.gear == 0 || !(std::abs(s.gear) <= 1e6)) {
+        throw std::invalid_argument(fmt::format(
+            "--stepper {}: gear = {} for joint '{}': the rotor turns gear times the joint, a "
+            "finite number, nonzero, |gear| <= 1e6",
+            text, value, s.joint));
+      }
+    } else if (!s.config.emplace(key, value).second) {
+      throw std::invalid_argument(
+          fmt::format("--stepper {}: {} given twice for joint '{}'", text, key, s.joint));
+    }
+  }
+  return s;
 }
 
 }  // namespace mjstepper::tools

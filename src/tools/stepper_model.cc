@@ -79,6 +79,8 @@ std::string PluginPath() {
 
 }  // namespace
 
+ModelPtr CompileSpec(mjSpec* spec, const mjVFS* vfs) { return Compile(spec, vfs); }
+
 void LoadPluginLibrary() {
   static const bool loaded = [] {
     mju_user_warning = WarnOnce;

@@ -55,6 +55,10 @@ struct StepperModel {
   std::vector<StepperActuator> steppers;
 };
 
+/// Compiles an edited spec; throws std::runtime_error with MuJoCo's error, each line once (the
+/// plugin's own message among them).
+ModelPtr CompileSpec(mjSpec* spec, const mjVFS* vfs = nullptr);
+
 /// Loads the plugin shared library once: $MJSTEPPER_PLUGIN if set, else the one built beside the
 /// tools. Throws std::runtime_error when MuJoCo does not then know mjstepper.stepper.
 void LoadPluginLibrary();

@@ -163,7 +163,7 @@ class TheCommand(unittest.TestCase):
         result = self.command("--help")
         self.assertEqual(result.returncode, 0, result.stderr)
         for sub in ("run", "sweep", "map", "pullout", "identify", "resonance-test", "size",
-                    "plot", "info", "tables"):
+                    "attach", "plot", "info", "tables"):
             self.assertIn(sub, result.stdout)
         info = self.command("info", RIGID)
         self.assertEqual(info.returncode, 0, info.stderr)
@@ -301,6 +301,21 @@ class OneEngine(unittest.TestCase):
         self.assertEqual(trace.units["current_a"], "A")
         self.assertAlmostEqual(float(trace.omega_cmd[-1]), 150 * 2 * math.pi / 60 * (1 - 1 / 6000),
                                places=9)
+
+    def test_attach(self):
+        # issue 29, item 2: the Python twin of `mjstepper attach`, on the test's two-link URDF.
+        robot = os.path.join(SOURCE, "tests", "tools", "models", "two_link.urdf")
+        out = os.path.join(os.getcwd(), "two_link_steppers.xml")
+        result = mjstepper.attach(robot, {"yaw": {"motor": "17hs19_2004s1", "gear": 10},
+                                          "pitch": {"motor": "17hs16_2004s1", "driver": "tmc5160",
+                                                    "gear": 20, "ihold": 24}}, out)
+        self.assertEqual(list(result["joints"]), ["yaw", "pitch"])
+        model = mujoco.MjModel.from_xml_path(out)
+        self.assertEqual(model.opt.timestep, result["timestep"])
+        self.assertEqual(model.nu, 2)
+        self.assertEqual(model.actuator_gear[1][0], 20)
+        with self.assertRaisesRegex(ValueError, "no hinge or slide joint named 'elbow'"):
+            mjstepper.attach(robot, {"elbow": {"motor": "17hs19_2004s1"}}, out)
 
     def test_run_starts_settled_or_aligned(self):
         # models/arm3.xml with 1.5 kg (issue 29, item 5): held once settled, slips when dropped.
