@@ -26,7 +26,7 @@ namespace {
 
 // Whether gravity loads a stepper at the state's pose: a generalised gravity force (qfrc_bias at
 // rest) along any stepper's moment row.
-bool GravityLoadsASteppers(const mjModel* m, const mjData* d, const StepperModel& sm) {
+bool GravityLoadsAStepper(const mjModel* m, const mjData* d, const StepperModel& sm) {
   if (mju_norm3(m->opt.gravity) == 0) return false;
   const DataPtr rest(mj_copyData(nullptr, m, d));
   mju_zero(rest->qvel, m->nv);
@@ -203,7 +203,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   auto last_report = start;
   // A settled start (StartMode::kSettled): the start commands held while gravity comes in.
   const double settle =
-      options.start == StartMode::kSettled && GravityLoadsASteppers(m, d, sm) ? kSettleTime : 0.0;
+      options.start == StartMode::kSettled && GravityLoadsAStepper(m, d, sm) ? kSettleTime : 0.0;
   result.settle_time = settle;
   if (settle > 0) {
     if (options.progress) {
