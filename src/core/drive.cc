@@ -131,8 +131,6 @@ double SlipCell(double load_angle, double cell) {
   return cell;
 }
 
-static_assert(sizeof(MotionProfile::State) % sizeof(double) == 0);
-
 StateLayout MakeStateLayout(const DriveConfig& c) {
   StateLayout layout{.core = Doubles<DriveCoreState>()};
   layout.controller = std::visit(

@@ -16,7 +16,6 @@
 
 #include "config.h"
 #include "core/presets.h"
-#include "options.h"
 #include "output_file.h"
 #include "stepper.h"
 #include "stepper_model.h"
@@ -25,11 +24,6 @@ namespace mjstepper::tools {
 namespace {
 
 using tinyxml2::XMLElement;
-
-struct SpecDeleter {
-  void operator()(mjSpec* s) const { mj_deleteSpec(s); }
-};
-using SpecPtr = std::unique_ptr<mjSpec, SpecDeleter>;
 
 // The robot's hinge and slide joints, for messages.
 std::string MovableJoints(const mjModel* m) {

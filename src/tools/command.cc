@@ -231,7 +231,8 @@ void PrintResult(const Command& c, const Result& result, double seconds) {
           fmt::print("  wrote {0}_raw.csv\n  wrote {0}_psd.csv\n  wrote {0}.png\n", c.out);
         } else if constexpr (std::is_same_v<R, AttachResult>) {
           fmt::print(
-              "steppers on {} joint(s) of {}: {}; timestep {:.3g} s (the rule's); "
+              "steppers on {} joint(s) of {}: {}; timestep {:.3g} s (the rule's largest, less 1 "
+              "%); "
               "keyframe 'start'\n  wrote {}\n",
               r.joints.size(), c.attach.robot, fmt::join(r.joints, ", "), r.timestep, r.out);
         } else if constexpr (std::is_same_v<R, SizeResult>) {

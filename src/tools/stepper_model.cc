@@ -23,10 +23,6 @@
 namespace mjstepper::tools {
 namespace {
 
-struct SpecDeleter {
-  void operator()(mjSpec* s) const { mj_deleteSpec(s); }
-};
-
 int StepperSlot() {
   int slot = -1;
   mjp_getPlugin(plugin::kPluginName, &slot);

@@ -50,6 +50,11 @@ struct DataDeleter {
 };
 using DataPtr = std::unique_ptr<mjData, DataDeleter>;
 
+struct SpecDeleter {
+  void operator()(mjSpec* s) const { mj_deleteSpec(s); }
+};
+using SpecPtr = std::unique_ptr<mjSpec, SpecDeleter>;
+
 struct StepperModel {
   ModelPtr model;
   std::vector<StepperActuator> steppers;
