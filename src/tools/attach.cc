@@ -72,15 +72,27 @@ AttachResult Attach(const AttachOptions& o) {
                   std::filesystem::absolute(o.meshdir).lexically_normal().string().c_str());
   }
   // The robot as it is, for its joints and its qpos0.
-  const ModelPtr robot = CompileSpec(spec.get());
+  ModelPtr robot;
+  try {
+    robot = CompileSpec(spec.get());
+  } catch (const std::runtime_error& e) {
+    const bool missing_file = std::string(e.what()).find("Error opening file") != std::string::npos;
+    throw std::runtime_error(fmt::format(
+        "{}: {}{}", o.robot, e.what(),
+        missing_file && o.meshdir.empty()
+            ? "; a robot whose meshes are package:// URIs (a URDF's) needs --meshdir DIR, the "
+              "folder that holds them"
+            : ""));
+  }
   // Asset folders made absolute when the output lies elsewhere, so that it finds the robot's
   // meshes, textures and height fields.
   const std::filesystem::path base = std::filesystem::absolute(o.robot).parent_path();
-  if (robot->nmesh + robot->ntex + robot->nhfield > 0 &&
-      std::filesystem::absolute(o.out).parent_path() != base) {
-    for (mjString* dir : {spec->compiler.meshdir, spec->compiler.texturedir}) {
+  if (std::filesystem::absolute(o.out).parent_path() != base) {
+    for (const auto& [dir, count] :
+         {std::pair{spec->compiler.meshdir, robot->nmesh + robot->nhfield},
+          std::pair{spec->compiler.texturedir, robot->ntex}}) {
       const std::string given = mjs_getString(dir);
-      if (!std::filesystem::path(given).is_absolute()) {
+      if (count > 0 && !std::filesystem::path(given).is_absolute()) {
         mjs_setString(dir, (base / given).lexically_normal().string().c_str());
       }
     }

@@ -105,5 +105,26 @@ TEST(Attach, ErrorsNameTheJointAndTheFix) {
   std::filesystem::remove(out);
 }
 
+// A URDF's package:// mesh: refused without --meshdir, saying so; with it, the written model finds
+// the mesh from another folder (its meshdir made absolute).
+TEST(Attach, PackageMeshesNeedTheirFolder) {
+  AttachOptions o;
+  o.robot = MJSTEPPER_SOURCE_DIR "/tests/tools/models/mesh_link.urdf";
+  o.out = OutPath("attach_mesh");
+  o.steppers = {ParseAttachStepper("hinge:motor=17hs19_2004s1")};
+  try {
+    Attach(o);
+    ADD_FAILURE() << "a package:// mesh was found without --meshdir";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), AllOf(HasSubstr("tetra.obj"), HasSubstr("--meshdir")));
+  }
+  o.meshdir = MJSTEPPER_SOURCE_DIR "/tests/tools/models/meshes";
+  Attach(o);
+  const StepperModel sm = LoadStepperModel(o.out);  // in the temporary folder
+  std::filesystem::remove(o.out);
+  EXPECT_EQ(sm.model->nmesh, 1);
+  EXPECT_EQ(sm.steppers.size(), 1u);
+}
+
 }  // namespace
 }  // namespace mjstepper::tools
