@@ -2,8 +2,8 @@
 // K·v = ω²·M·v with M from mj_fullM, K = Σ k·a·aᵀ over the model's springs (hinge and slide joint
 // stiffness, tendon stiffness along the tendon's Jacobian) and each stepper's holding stiffness T'
 // along its actuator's moment row (which holds the gear: joint and tendon transmissions alike),
-// in the null space of the equality constraints, joint and tendon limits and contacts active
-// there (held). Gravity's own stiffness, dof and tendon friction and ball or free joints' springs
+// in the null space of the equality constraints and the joint and tendon limits active there
+// (held; contacts are not: modes.cc, Held). Gravity's own stiffness, dof and tendon friction and ball or free joints' springs
 // are left out; rigid-body modes (ω = 0) are dropped. Used by the plugin's load warning and by the
 // tools (`mjstepper info`, `run`), so that both judge the timestep on the same numbers
 // (core/timestep_rule.h).

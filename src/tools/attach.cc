@@ -187,16 +187,12 @@ AttachResult Attach(const AttachOptions& o) {
   // the rule recommends, on the robot with its steppers at its start.
   const StepperModel sm = LoadStepperModel(o.robot, {}, text());
   const TimestepVerdict verdict = CheckTimestep(sm);  // at qpos0, as the plugin's load check
-  // The rule's suggestion less 1 %, rounded down to 3 digits, or the robot's own timestep when
-  // nothing holds it (no mode). (Less 1 %: the plugin's load check finds the fastest mode 0.1 %
-  // higher than the tools' CheckTimestep on the same file, PAROL6's J6 243.2 against 243.0 Hz,
-  // not yet explained; without the margin the suggestion drew the plugin's warning.)
-  result.timestep = robot->opt.timestep;
-  if (std::isfinite(verdict.suggestion) && verdict.suggestion > 0) {
-    const double exact = 0.99 * verdict.suggestion;
-    const double unit = std::pow(10.0, std::floor(std::log10(exact)) - 2);  // of the 3rd digit
-    result.timestep = std::floor(exact / unit) * unit;
-  }
+  // The rule's suggestion (its largest, rounded down to 3 digits: it passes), or the robot's own
+  // timestep when nothing holds it (no mode). The plugin's load check judges the written file on
+  // the same modes (contacts free in both: plugin/modes.cc, Held).
+  result.timestep = std::isfinite(verdict.suggestion) && verdict.suggestion > 0
+                        ? verdict.suggestion
+                        : robot->opt.timestep;
   option->SetAttribute("timestep", fmt::format("{:.3g}", result.timestep).c_str());
   const std::string xml = text();
   OutputFile out(o.out);

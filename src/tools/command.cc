@@ -130,8 +130,8 @@ int Info(const std::string& path) {
     if (speeds.empty()) fmt::print("      none\n");
   }
   fmt::print(
-      "  model: {} mode(s) at qpos0 (M; joint and tendon springs; the steppers' T'; equalities, "
-      "limits and contacts active there held):\n",
+      "  model: {} mode(s) at qpos0 (M; joint and tendon springs; the steppers' T'; equalities "
+      "and limits active there held, contacts free):\n",
       modes.size());
   for (size_t k = 0; k < modes.size(); ++k) {
     fmt::print("    mode {} at {:.2f} Hz: {}{}\n", k + 1, modes[k].omega / kTwoPi,
@@ -231,9 +231,8 @@ void PrintResult(const Command& c, const Result& result, double seconds) {
           fmt::print("  wrote {0}_raw.csv\n  wrote {0}_psd.csv\n  wrote {0}.png\n", c.out);
         } else if constexpr (std::is_same_v<R, AttachResult>) {
           fmt::print(
-              "steppers on {} joint(s) of {}: {}; timestep {:.3g} s (the rule's largest, less 1 "
-              "%); "
-              "keyframe 'start'\n  wrote {}\n",
+              "steppers on {} joint(s) of {}: {}; timestep {:.3g} s (the rule's largest); keyframe "
+              "'start'\n  wrote {}\n",
               r.joints.size(), c.attach.robot, fmt::join(r.joints, ", "), r.timestep, r.out);
         } else if constexpr (std::is_same_v<R, SizeResult>) {
           PrintSizeTable(r, std::cout);

@@ -12,6 +12,7 @@
 // (applied D later) by 0.393 rad.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -75,6 +76,80 @@ TEST(StepEdges, TheTableMovesOnTheEdgeNotAtTheNextInterrupt) {
     // 0.005 rad: the rounding's mean over 3200 samples (its spread 0.049 rad / √3200 = 0.001).
     EXPECT_NEAR(lag, 0.0, 0.005) << driver << " " << drive;
   }
+}
+
+// The speed of the first lost step on a slow ramp, against the pull-out at the bus limit.
+//
+// Closed form (rotor frame, SPEC S-2/S-3 with Km·ω the back-EMF's amplitude): in steady state at
+// speed ω the phase voltages v_d = R·i_d − X·i_q, v_q = R·i_q + X·i_d + Km·ω, X = Nr·ω·L, must lie
+// in the circle |v| ≤ V. The currents they allow are a circle of radius V/|Z| about
+// i0 = −Km·ω·(X, R)/|Z|², so the largest torque is Km·i_q = Km·(V·|Z| − Km·ω·R)/|Z|², capped by
+// Km·I. A chopper that cannot reach its target (every chip drive at these speeds) applies ±Vbus
+// in the sign of its target: a square wave whose fundamental is V = 4·Vbus/π, and whose phase the
+// rotor's load angle adjusts to the best one. A step is lost where that torque falls below the
+// load, b·ω + J·α.
+//
+// 17HS19-2004S1 (R 1.4 Ω, L 3.0 mH, Km 0.2086 N·m/A), TMC2209 at 24 V and 16 microsteps, on a
+// joint damped b = 1.5e-3 + 1e-4 (the motor's own) N·m·s/rad, J = 1.82e-5 kg·m², ramped at
+// 1000 r/min/s: the closed form puts the first lost step at 1499 r/min.
+double ClosedFormFirstLostStep(double damping, double inertia, double acceleration) {
+  constexpr double kKm = 0.59 / (2 * std::numbers::sqrt2);  // N·m/A: holding / (√2·I_rated)
+  constexpr double kR = 1.4, kL = 3.0e-3, kI = 2 * std::numbers::sqrt2;  // Ω, H, A (peak)
+  const double v = 4 * 24.0 / std::numbers::pi;  // V: the square wave's fundamental
+  auto margin = [&](double w) {
+    const double x = kNr * w * kL, z2 = kR * kR + x * x;
+    const double torque = kKm * std::min((v * std::sqrt(z2) - kKm * w * kR) / z2, kI);
+    return torque - damping * w - inertia * acceleration;
+  };
+  double lo = 1, hi = 1000;  // rad/s: the margin is positive at lo, negative at hi
+  for (int i = 0; i < 100; ++i) (margin(0.5 * (lo + hi)) > 0 ? lo : hi) = 0.5 * (lo + hi);
+  return lo;
+}
+
+TEST(StepEdges, TheFirstLostStepIsAtThePullOutOfTheBusLimit) {
+  constexpr double kDamping = 1.5e-3;                                 // N·m·s/rad on the joint
+  constexpr double kBody = 1e-5, kArmature = 8.2e-6;                  // kg·m²
+  constexpr double kAcceleration = 1000 * 2 * std::numbers::pi / 60;  // rad/s²
+  constexpr double kH = 1e-5;                                         // s
+  const std::string configs =
+      Config("motor", "17hs19_2004s1") + Config("driver", "tmc2209") + Config("input", "steps");
+  const std::string xml = fmt::format(R"(<mujoco>
+  <option timestep="{}" integrator="implicitfast"/>
+  <extension><plugin plugin="mjstepper.stepper"/></extension>
+  <worldbody><body><joint name="j1" type="hinge" axis="0 0 1" damping="{}"/>
+    <inertial pos="0 0 0" mass="0.1" diaginertia="{} {} {}"/></body></worldbody>
+  <actuator><plugin name="m1" joint="j1" plugin="mjstepper.stepper" armature="{}">{}</plugin>
+  </actuator>
+  <sensor><plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/></sensor>
+</mujoco>)",
+                                      kH, kDamping, kBody, kBody, kBody, kArmature, configs);
+  std::string error;
+  const ModelPtr m = LoadModel(xml, &error);
+  ASSERT_TRUE(m) << error;
+  const DataPtr d(mj_makeData(m.get()));
+  const double step_angle = 2 * std::numbers::pi / (4 * kNr * kMicrosteps);  // rad
+  double lost_at = 0;                                                        // rad/s
+  while (d->time < 2.5) {
+    const double t = d->time + kH;
+    d->ctrl[0] = std::round(0.5 * kAcceleration * t * t / step_angle);
+    mj_step(m.get(), d.get());
+    if (d->sensordata[kLostSteps] != 0) {
+      lost_at = kAcceleration * d->time;
+      break;
+    }
+  }
+  const double predicted =
+      ClosedFormFirstLostStep(kDamping + 1e-4, kBody + kArmature, kAcceleration);
+  const double rpm = 60 / (2 * std::numbers::pi);
+  std::printf("first lost step at %.0f r/min; the pull-out at the bus limit: %.0f r/min\n",
+              lost_at * rpm, predicted * rpm);
+  // 2.5 %: the closed form keeps the square wave's fundamental only, and a slip is counted half
+  // an electrical cycle after the pull-out; at this damping both cost under 1 % (0.3 % measured).
+  // With the count read at the 50 µs interrupts (the edges switched off) the first step was lost
+  // at 1437 r/min, 4.1 % early, which this band refuses. At lighter damping the harmonics' share
+  // grows (+4.6 % at 0.8e-3 N·m·s/rad) and below about 0.5e-3 mid-band instability, which no
+  // closed form here predicts, loses the first step first: the test stays at this point.
+  EXPECT_NEAR(lost_at / predicted, 1.0, 0.025);
 }
 
 }  // namespace

@@ -57,12 +57,12 @@ TEST(Attach, StepperOnEachNamedJointAtTheRulesTimestep) {
   EXPECT_STREQ(ControllerName(sm.steppers[1].config.controller), "stealthchop");
   EXPECT_EQ(Microsteps(sm.steppers[1].config.controller), 32);
   EXPECT_EQ(m->opt.integrator, mjINT_IMPLICITFAST);
-  // The rule's timestep: it passes every mode, within 2 % of the largest that does (1 % margin
-  // and the rounding to 3 digits).
+  // The rule's timestep: its suggestion (the largest that passes every mode, rounded down to 3
+  // digits), on the written file's own modes.
   EXPECT_EQ(m->opt.timestep, r.timestep);
   const TimestepVerdict verdict = CheckTimestep(sm);
   EXPECT_TRUE(verdict.failed.empty()) << verdict.Message("attach");
-  EXPECT_GT(m->opt.timestep, 0.98 * verdict.largest_timestep);
+  EXPECT_EQ(m->opt.timestep, verdict.suggestion);
   // The keyframe at qpos0.
   const int key = mj_name2id(m, mjOBJ_KEY, "start");
   ASSERT_GE(key, 0);

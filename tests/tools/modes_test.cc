@@ -147,19 +147,25 @@ TEST(Modes, EqualityConstraintsAreHeld) {
   EXPECT_NEAR(modes[0].participation[0], k1 / (k1 + 10), 1e-9);  // energies split as stiffnesses
 }
 
+// Loads `path` with MuJoCo's warnings (the plugin's load check among them) kept in `warnings`.
+StepperModel LoadCapturingWarnings(const std::string& path, std::vector<std::string>* warnings) {
+  LoadPluginLibrary();
+  static std::vector<std::string>* captured = nullptr;
+  captured = warnings;
+  void (*previous)(const char*) = mju_user_warning;
+  mju_user_warning = [](const char* message) { captured->push_back(message); };
+  StepperModel sm = LoadStepperModel(path);
+  mju_user_warning = previous;
+  return sm;
+}
+
 // At 1 ms the coupling fails both of its modes: run refuses once, naming both (the fast one,
 // mostly the coupling's, and the slow one), their ω·h, and one suggestion; the plugin's load
 // warning says the same, on one line, with the same numbers.
 TEST(Modes, RunNamesEveryFailingModeAndThePluginAgrees) {
   const std::string path = WithTimestep("tsui_coupling", "1e-3");
-  LoadPluginLibrary();
-  static std::vector<std::string>* captured = nullptr;
   std::vector<std::string> warnings;
-  captured = &warnings;
-  void (*previous)(const char*) = mju_user_warning;
-  mju_user_warning = [](const char* message) { captured->push_back(message); };
-  const StepperModel sm = LoadStepperModel(path);
-  mju_user_warning = previous;
+  const StepperModel sm = LoadCapturingWarnings(path, &warnings);
   const TimestepVerdict verdict = CheckTimestep(sm);
   ASSERT_EQ(verdict.failed.size(), 2u);
   ASSERT_FALSE(warnings.empty());
@@ -183,6 +189,43 @@ TEST(Modes, RunNamesEveryFailingModeAndThePluginAgrees) {
   options.allow_coarse = true;
   EXPECT_NO_THROW(tools::Run(options, progress));
   EXPECT_THAT(progress.str(), HasSubstr("warning: " + verdict.Message(path)));
+}
+
+// A contact active at qpos0 is not held (plugin/modes.cc, Held): MuJoCo's compiler makes the
+// first mjData, whose plugin init runs the load check, with contacts disabled, so holding them
+// made the tools and the load warning judge different modes (PAROL6's base mesh touches link 1).
+// Here a fast rotor's box rests in a world box; a slow rotor is free. At a step between the two
+// modes' limits the fast mode fails in both, with the same message.
+TEST(Modes, ContactsAtTheStartAreFreeAndThePluginAgrees) {
+  const std::string xml = R"(<mujoco><option timestep="2e-4" integrator="implicitfast"/>
+  <extension><plugin plugin="mjstepper.stepper"/></extension>
+  <worldbody>
+    <geom name="stop" type="box" size="0.05 0.05 0.01" pos="0 0 -0.01"/>
+    <body name="fast"><joint name="fast" type="hinge" axis="0 0 1"/>
+      <geom type="box" size="0.02 0.02 0.01" pos="0 0 0.005" mass="0.001"/></body>
+    <body name="slow" pos="1 0 0"><joint name="slow" type="hinge" axis="0 0 1"/>
+      <inertial pos="0 0 0" mass="1" diaginertia="1e-3 1e-3 1e-3"/></body>
+  </worldbody>
+  <actuator>
+    <plugin name="fast" joint="fast" plugin="mjstepper.stepper" armature="8.2e-6">
+      <config key="motor" value="17hs19_2004s1"/></plugin>
+    <plugin name="slow" joint="slow" plugin="mjstepper.stepper" armature="8.2e-6">
+      <config key="motor" value="17hs19_2004s1"/></plugin>
+  </actuator></mujoco>)";
+  const auto path = TempDir() / "contact.xml";
+  std::ofstream(path) << xml;
+  std::vector<std::string> warnings;
+  const StepperModel sm = LoadCapturingWarnings(path.string(), &warnings);
+  // The contact is there at qpos0 (the tools' data), and the fast rotor keeps its mode.
+  const DataPtr d(mj_makeData(sm.model.get()));
+  mj_forward(sm.model.get(), d.get());
+  ASSERT_GT(d->ncon, 0);
+  const TimestepVerdict verdict = CheckTimestep(sm);
+  ASSERT_EQ(plugin::ComputeModes(sm.model.get(), ModalSteppers(sm)).size(), 2u);
+  ASSERT_EQ(verdict.failed.size(), 1u) << verdict.Message("contact");
+  EXPECT_THAT(verdict.Message("mjstepper", "; "), HasSubstr("stepper 'fast' 100 %"));
+  ASSERT_FALSE(warnings.empty());
+  for (const std::string& w : warnings) EXPECT_EQ(w, verdict.Message("mjstepper", "; "));
 }
 
 // The suggestion, as printed, passes: run accepts exactly it, and refuses the next 3-figure step.

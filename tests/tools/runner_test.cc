@@ -122,6 +122,63 @@ TEST(Runner, StepTimeListDrivesASteppingStepper) {
   EXPECT_THAT(refused.output, HasSubstr("set shaft.input=steps"));
 }
 
+// Issue 29, item 1: a shaped(…) command on a driver chip with the drive's own profile. ZV at
+// 20 Hz without damping splits the 0.4 rad target at 10 ms into 0.2 rad then, half a period
+// (25 ms) later, 0.2 rad more; the trapezoid (20 rad/s, 2000 rad/s²) takes 20 ms for each half,
+// so at 33 ms the command rests at 0.2 rad (unshaped it would be at 0.4 rad), and it ends at
+// 0.4 rad with the rotor there and no step lost. Every chip drive, each with both profiles.
+TEST(Runner, ShapedTargetsDriveAChipsOwnProfile) {
+  const auto model = TempDir() / "chip_profile.xml";
+  std::ofstream(model) << R"(<mujoco>
+  <option timestep="2e-5" integrator="implicitfast"/>
+  <extension><plugin plugin="mjstepper.stepper"/></extension>
+  <worldbody><body><joint name="j1" type="hinge" axis="0 0 1" damping="1e-3"/>
+    <inertial pos="0 0 0" mass="0.1" diaginertia="1e-5 1e-5 1e-5"/></body></worldbody>
+  <actuator><plugin name="joint" joint="j1" plugin="mjstepper.stepper" armature="8.2e-6">
+    <config key="motor" value="17hs19_2004s1"/>
+    <config key="profile_speed" value="20"/><config key="profile_accel" value="2000"/>
+    <config key="profile_jerk" value="1e6"/>
+  </plugin></actuator>
+</mujoco>)";
+  const auto csv = TempDir() / "chip_profile.csv";
+  for (const char* chip_drive : {"tmc5160 stealthchop", "tmc2209 spreadcycle", "a4988 chopper"}) {
+    for (const char* profile : {"trapezoid", "scurve"}) {
+      const std::string chip = std::string(chip_drive).substr(0, std::string(chip_drive).find(' '));
+      const std::string drive = std::string(chip_drive).substr(chip.size() + 1);
+      SCOPED_TRACE(fmt::format("{} {} {}", chip, drive, profile));
+      const Result r = RunCli(fmt::format(
+          "run {} --duration 0.08 --quiet --set joint.driver={} --set joint.drive={} "
+          "--set joint.profile={} --ctrl 'joint=shaped(targets(0rad,0.4rad@0.01s), zv 20Hz 0)' "
+          "--log {}",
+          model.string(), chip, drive, profile, csv.string()));
+      ASSERT_EQ(r.status, 0) << r.output;
+      std::ifstream in(csv);
+      std::string line;
+      std::getline(in, line);
+      const auto names = Split(line);
+      auto column = [&](const std::string& name) {
+        return std::find(names.begin(), names.end(), name) - names.begin();
+      };
+      const auto time = column("time[s]"), theta = column("joint:theta[rad]"),
+                 theta_cmd = column("joint:theta_cmd[rad]"),
+                 lost = column("joint:lost_steps[full steps]");
+      std::vector<std::string> at_33ms, last;
+      while (std::getline(in, line)) {
+        last = Split(line);
+        if (at_33ms.empty() && std::stod(last[time]) >= 0.033) at_33ms = last;
+      }
+      ASSERT_FALSE(at_33ms.empty());
+      // 1e-3 rad: the S-curve's jerk phases (0.002 s at 1e6 rad/s³) end it within 1 ms of the
+      // trapezoid; a tenth of the half step the shaper holds back.
+      EXPECT_NEAR(std::stod(at_33ms[theta_cmd]), 0.2, 1e-3);
+      EXPECT_NEAR(std::stod(last[theta_cmd]), 0.4, 1e-9);
+      // A quarter of a full step (0.0314 rad): the rotor is where the command is.
+      EXPECT_NEAR(std::stod(last[theta]), 0.4, 0.008);
+      EXPECT_EQ(std::stod(last[lost]), 0.0);
+    }
+  }
+}
+
 // Issue 18: run --accel-log writes the toolhead's virtual ADXL345 in Klipper's raw format: the
 // header line exactly, 3200 rows per simulated second; a model without the sensor is named.
 TEST(Runner, AccelLogIsKlippersRawFormat) {
