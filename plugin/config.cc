@@ -184,6 +184,14 @@ constexpr AttributeSpec kAttrCoupling{
     "timesteps (ωn·h up to about 1) and static equilibria stay where they are. `explicit`: the "
     "torque at the step's start, whose ring is fast by (ωn·h)²/24."};
 
+constexpr AttributeSpec kAttrFidelity{
+    "fidelity", "name", "`switching`", "—",
+    "How the drive's current regulation is simulated (SPEC §11). `switching`: every interrupt and "
+    "every bridge event, the reference. `averaged`: a chopper's cycle average "
+    "(`src/core/averaged_bridge.h`): each phase holds its target by the deadbeat voltage within "
+    "the bus and slews to a new one at the bus's rate, with STEP/DIR edges exact; its cost does "
+    "not grow with the chopper frequency or the clock. So far for `chopper` and `spreadcycle`."};
+
 const std::vector<const AttributeSpec*>& DriveAttributes() {
   static const std::vector<const AttributeSpec*> list = {&kAttrMotor,
                                                          &kAttrDrive,
@@ -219,7 +227,8 @@ const std::vector<const AttributeSpec*>& DriveAttributes() {
                                                          &kAttrResistanceCoefficient,
                                                          &kAttrTorqueConstantCoefficient,
                                                          &kAttrGauge,
-                                                         &kAttrCoupling};
+                                                         &kAttrCoupling,
+                                                         &kAttrFidelity};
   return list;
 }
 
@@ -370,6 +379,15 @@ DriveConfig Parse(const AttributeSource& a) {
                                  .isr_period = c.isr_period,
                                  .bus_voltage = c.bus_voltage};
   c.controller = MakeController(drive, a, c.motor, constants);
+  if (a.Choice(kAttrFidelity, "switching", {"switching", "averaged"}) == "averaged") {
+    if (!IsSwitching(c.controller)) {
+      ThrowBad(kAttrFidelity, "averaged",
+               fmt::format("has no averaged form for drive {} yet (chopper and spreadcycle have "
+                           "one); use fidelity = switching",
+                           drive));
+    }
+    c.fidelity = Fidelity::kAveraged;
+  }
   c.heat = ParseHeat(a, *preset, drive);
   // An attribute the chosen controller does not read is a mistake, not a silent no-op.
   const std::vector<const AttributeSpec*> used = ControllerAttributes(drive);

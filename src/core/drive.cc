@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "core/averaged_bridge.h"
 #include "core/motor.h"
 #include "core/sensors/encoder.h"
 #include "core/switching.h"
@@ -58,8 +59,7 @@ void Validate(const DriveConfig& c) {
     Require(v->voltage_amplitude > 0 && v->voltage_amplitude <= c.bus_voltage, "voltage_amplitude",
             v->voltage_amplitude, "must be > 0 and <= bus_voltage (V)");
   }
-  const bool switching = std::visit(
-      [](const auto& unit) { return SwitchingUnit<std::decay_t<decltype(unit)>>; }, c.controller);
+  const bool switching = IsSwitching(c.controller);
   Require(!switching || c.power_stage == PowerStageKind::kTwoHBridges,
           "power_stage (0: h_bridge, 1: svpwm)", static_cast<int>(c.power_stage),
           "a chopper switches each phase's own full bridge: it needs h_bridge");
@@ -68,6 +68,9 @@ void Validate(const DriveConfig& c) {
   Require(c.compute_delay >= 0 && c.compute_delay < c.isr_period, "compute_delay", c.compute_delay,
           "must be >= 0 and < isr_period (s)");
   Require(c.rk4_step > 0, "rk4_step", c.rk4_step, "must be > 0 (s)");
+  Require(c.fidelity == Fidelity::kSwitching || (switching && c.solver == WindingSolver::kExact),
+          "fidelity (0: switching, 1: averaged)", static_cast<int>(c.fidelity),
+          "averaged needs a chopper drive on the exact winding solver");
   Require(c.transmission.efficiency > 0 && c.transmission.efficiency <= 1, "efficiency",
           c.transmission.efficiency, "must be in (0, 1]");
   Require(c.transmission.backdrive_efficiency > 0 && c.transmission.backdrive_efficiency <= 1,
@@ -532,19 +535,16 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
       }
       t = t_end;
     };
-    // Interrupt k at time t: sample the sensors, run the controller, schedule the new voltage.
-    auto tick = [&](long k) {
-      // Encoder (S-16) and the backward-difference velocity estimate (S-17), every tick.
-      const double theta_meas = EncoderAngle(theta_at(t), config_.encoder_counts);
-      velocity_estimator_.Update(velocity_gain_, theta_meas, &s->theta_meas, &s->omega_est);
-      const CommandSample command = command_at(t);
+    // StallGuard and CoolStep at time t, for the command there (a tick's, or an averaged
+    // interval's start).
+    auto guard = [&]([[maybe_unused]] const CommandSample& command) {
       if constexpr (requires { controller.stallguard; }) {
         // StallGuard measures once per full step (sensors/stallguard.h), from the rotor's mean
         // speed over it; CoolStep follows. The step rate is the chip's (TSTEP): one full step
         // over the time since the last.
-        const StallGuard& guard = controller.stallguard;
+        const StallGuard& sg = controller.stallguard;
         const double step = FullStep(command.theta);
-        if (guard.version != 0 && step != s->full_step) {
+        if (sg.version != 0 && step != s->full_step) {
           const double now = origin + t;                // s
           const double theta_now = theta_at(t);         // rad
           const double span = now - s->full_step_time;  // s
@@ -556,13 +556,21 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
           s->full_step = step;
           s->full_step_time = now;
           s->full_step_theta = theta_now;
-          s->stallguard = guard.Result(TorqueConstantAt(s->winding_temperature), speed, current,
-                                       UnitPhasor(constants_.rotor_teeth * theta_now));
-          s->stall = guard.Stall(s->stallguard, step_rate) ? 1 : 0;
+          s->stallguard = sg.Result(TorqueConstantAt(s->winding_temperature), speed, current,
+                                    UnitPhasor(constants_.rotor_teeth * theta_now));
+          s->stall = sg.Stall(s->stallguard, step_rate) ? 1 : 0;
           if (s->stall != 0 && s->first_stall_time < 0) s->first_stall_time = now;
-          guard.CoolStep(s->stallguard, step_rate, &s->current_scale, &s->coolstep_count);
+          sg.CoolStep(s->stallguard, step_rate, &s->current_scale, &s->coolstep_count);
         }
       }
+    };
+    // Interrupt k at time t: sample the sensors, run the controller, schedule the new voltage.
+    auto tick = [&](long k) {
+      // Encoder (S-16) and the backward-difference velocity estimate (S-17), every tick.
+      const double theta_meas = EncoderAngle(theta_at(t), config_.encoder_counts);
+      velocity_estimator_.Update(velocity_gain_, theta_meas, &s->theta_meas, &s->omega_est);
+      const CommandSample command = command_at(t);
+      guard(command);
       const Sample sample{
           .command = command,
           .feedback = {.theta = theta_meas,
@@ -600,8 +608,11 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
         voltage = {unit.phase[0].voltage, unit.phase[1].voltage};
       }
     };
-    predict(0);
-    predict(1);
+    const bool averaged = SwitchingUnit<C> && config_.fidelity == Fidelity::kAveraged;
+    if (!averaged) {
+      predict(0);
+      predict(1);
+    }
     // STEP/DIR edges (issue 29, item 7): on a drive whose unit has an Edge (the chip drives), the
     // count moves where θcmd crosses a half microstep (Count rounds; the pulses of a step are
     // spread evenly over it, so x = θcmd/step angle is linear and integer at the step's ends),
@@ -632,7 +643,104 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     // bridge's events each start an on-time, an off-time or a decay of its own length, bounded
     // below by the unit's attributes.)
     long events = 0;
-    while (true) {
+    if constexpr (SwitchingUnit<C>) {
+      if (averaged) {
+        // SPEC §11, averaged_bridge.h: no interrupts and no chopper events. The table's count
+        // moves at the STEP edges (input = steps; exact events) or with the command (the other
+        // inputs; an interval ends at the next microstep); each interval aims at the table's
+        // target at its end (MicroPlyer's interpolation included, read at any instant through the
+        // edge's fractional tick label) with the deadbeat voltage, within the bus, on the exact
+        // winding solution.
+        const double vbus = stage_.bus_voltage;                 // V
+        const double emf_gain = motor.torque_constant * omega;  // V: |e| = Km·ω (S-2)
+        const double electrical =
+            constants_.rotor_teeth * std::max(std::abs(omega), std::abs(omega_cmd));  // rad/s
+        const double rotation_limit =
+            electrical > 0 ? kAveragedRotation / electrical : kNever;  // s
+        const double microstep_time = !edges && step_angle_ > 0 && omega_cmd != 0
+                                          ? step_angle_ / std::abs(omega_cmd)
+                                          : kNever;  // s
+        auto label_at = [&](double at) {             // the tick label of time `at` (fractional)
+          return static_cast<double>(k_anchor) + (at - anchor) / period;
+        };
+        // The table's targets at `at` with the count `count` (microsteps).
+        auto table_at = [&](double count, double at) {
+          const TickOutput out =
+              controller.Edge(constants_, count, label_at(at), s->current_scale, stage_, &unit);
+          C::SetTarget(0, out.current_ref.real(), &unit);
+          C::SetTarget(1, out.current_ref.imag(), &unit);
+          s->current_ref_a = out.current_ref.real();
+          s->current_ref_b = out.current_ref.imag();
+        };
+        while (t < end - eps) {
+          if (++events > max_events) {
+            bounded = false;
+            integrate_to(end);
+            break;
+          }
+          if (t_edge <= t + eps) {  // a STEP edge now: the count moves at its own time
+            table_at(
+                std::round(command_at(t_edge).theta / step_angle_ + (edge_rate > 0 ? 0.25 : -0.25)),
+                t);
+            t_edge = next_edge(t);
+          }
+          guard(command_at(t));
+          // The interval: to the next edge, microstep or step end, at most kAveragedRotation of
+          // electrical rotation; its target, the table's at its end (the count is constant
+          // within it: read at its middle); a phase off its target first slews there (SlewTime).
+          double t_next = std::min({end, t_edge, t + rotation_limit, t + microstep_time});
+          table_at(std::round(command_at(0.5 * (t + t_next)).theta / step_angle_), t_next);
+          const PhaseVector target(unit.phase[0].target, unit.phase[1].target);  // A
+          const PhaseVector emf = PhaseVector(0, emf_gain) * phasor;  // V, j·Km·ω·e^{jx}
+          const PhaseVector hold = motor.resistance * target + emf;   // V
+          const double tolerance = kOnTargetFraction * vbus / motor.resistance;  // A
+          for (int p = 0; p < 2; ++p) {
+            const double i = p == 0 ? current.real() : current.imag();
+            const double i_target = p == 0 ? target.real() : target.imag();
+            if (std::abs(i - i_target) <= tolerance) continue;
+            const double slew =
+                SlewTime(i, i_target, p == 0 ? hold.real() : hold.imag(), motor.inductance, vbus);
+            t_next = std::min(t_next, std::max(t + slew, t + 2 * eps));
+          }
+          t_next = std::min(t_next, end);
+          const double length = t_next - t;
+          if (std::abs(length - kernel.h) > 1e-9 * length) {
+            if (!speed) speed.emplace(motor, omega, h, s->rotor_phasor(), phasor1);
+            kernel = WindingKernel(*speed, DecayFor(winding, length));
+          }
+          IntervalEnergy unused;
+          const PhaseVector free_end =
+              AdvanceInterval(motor, kernel, current, {0, 0}, phasor, &unused);
+          voltage = stage_
+                        .Apply({DeadbeatVoltage(target.real(), free_end.real(), kernel.decay,
+                                                motor.resistance),
+                                DeadbeatVoltage(target.imag(), free_end.imag(), kernel.decay,
+                                                motor.resistance)})
+                        .voltage;
+          // A phase the bus holds back (its deadbeat voltage cut) is driven at ±Vbus until its
+          // current reaches the target, found on the exact solution (switching.h), as the on-time
+          // of a chopper ends at its comparator.
+          for (int p = 0; p < 2; ++p) {
+            const double v = p == 0 ? voltage.real() : voltage.imag();
+            const double gap =
+                (p == 0 ? target.real() - current.real() : target.imag() - current.imag());  // A
+            if (std::abs(v) < vbus || gap * v <= 0) continue;  // not cut, or not toward it
+            const double reach =
+                FirstCrossing(motor, *speed, current, voltage, phasor, p, v > 0 ? 1 : -1,
+                              p == 0 ? target.real() : target.imag(), 0.0, 0.0, 2 * eps, length);
+            if (reach > 2 * eps && reach < length) t_next = std::min(t_next, t + reach);
+          }
+          integrate_to(t_next);
+        }
+        // The encoder and the speed estimate at the step's end, exact (no interrupts ran).
+        s->theta_meas = EncoderAngle(theta1, config_.encoder_counts);
+        s->omega_est = omega;
+        // The clock skips to the step's end, so that the next step finds it in sync.
+        n = std::max(n, std::ceil((end - anchor) / period - 1e-9));
+        s->pending = 0;
+      }
+    }
+    while (!averaged) {
       const double t_apply = s->pending ? apply_at : kNever;
       const double t_tick = anchor + n * period;             // t_k − origin
       const int p_next = t_switch[1] < t_switch[0] ? 1 : 0;  // the phase that switches first

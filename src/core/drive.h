@@ -60,6 +60,12 @@ enum class InputMode {
 
 enum class WindingSolver { kExact, kRk4 };  ///< kRk4 only for reference runs in tests
 
+/// How a drive's current regulation is simulated (SPEC §11): kSwitching, every interrupt and every
+/// bridge event (the reference); kAveraged, a chopper's cycle average (averaged_bridge.h), whose
+/// cost does not grow with the clock or the chopper frequency; STEP/DIR edges and the bus limit
+/// are kept in both.
+enum class Fidelity { kSwitching, kAveraged };
+
 struct DriveConfig {
   MotorParams motor;
   Controller controller;  ///< default: CurrentMicrostep with Tsui's loop
@@ -74,6 +80,7 @@ struct DriveConfig {
   std::optional<SpeedFeedback> speed_feedback;
   MotionProfile profile;  ///< kNone: ctrl is the command itself
   WindingSolver solver = WindingSolver::kExact;
+  Fidelity fidelity = Fidelity::kSwitching;  ///< kAveraged: only on a switching (chopper) drive
   double rk4_step = 1e-6;  ///< s, step of the kRk4 reference
   /// Heat (SPEC §8, thermal.h): unset, R and Km are the motor's own (its R20, Km20) for ever; set,
   /// the winding's temperature sets R(T) and Km(T) over each step, and the copper loss warms it.

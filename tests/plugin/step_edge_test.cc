@@ -113,16 +113,7 @@ TEST(StepEdges, TheFirstLostStepIsAtThePullOutOfTheBusLimit) {
   constexpr double kH = 1e-5;                                         // s
   const std::string configs =
       Config("motor", "17hs19_2004s1") + Config("driver", "tmc2209") + Config("input", "steps");
-  const std::string xml = fmt::format(R"(<mujoco>
-  <option timestep="{}" integrator="implicitfast"/>
-  <extension><plugin plugin="mjstepper.stepper"/></extension>
-  <worldbody><body><joint name="j1" type="hinge" axis="0 0 1" damping="{}"/>
-    <inertial pos="0 0 0" mass="0.1" diaginertia="{} {} {}"/></body></worldbody>
-  <actuator><plugin name="m1" joint="j1" plugin="mjstepper.stepper" armature="{}">{}</plugin>
-  </actuator>
-  <sensor><plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/></sensor>
-</mujoco>)",
-                                      kH, kDamping, kBody, kBody, kBody, kArmature, configs);
+  const std::string xml = BenchRotorModel(configs, kDamping, kH);
   std::string error;
   const ModelPtr m = LoadModel(xml, &error);
   ASSERT_TRUE(m) << error;

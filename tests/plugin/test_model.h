@@ -67,6 +67,22 @@ inline std::string RotorModel(const std::string& actuators, const std::string& e
                      timestep, extension, bodies, actuators, sensors);
 }
 
+/// The 17HS19 bench rotor of the STEP/DIR tests: a hinge damped by `damping` (N·m·s/rad) with a
+/// 1e-5 kg·m² body, a stepper "m1" with the rotor's 8.2e-6 kg·m² armature and `configs`, and its
+/// signal sensor, at timestep h.
+inline std::string BenchRotorModel(const std::string& configs, double damping, double timestep) {
+  return fmt::format(R"(<mujoco>
+  <option timestep="{}" integrator="implicitfast"/>
+  <extension><plugin plugin="mjstepper.stepper"/></extension>
+  <worldbody><body><joint name="j1" type="hinge" axis="0 0 1" damping="{}"/>
+    <inertial pos="0 0 0" mass="0.1" diaginertia="1e-5 1e-5 1e-5"/></body></worldbody>
+  <actuator><plugin name="m1" joint="j1" plugin="mjstepper.stepper" armature="8.2e-6">{}</plugin>
+  </actuator>
+  <sensor><plugin name="s" plugin="mjstepper.stepper" objtype="actuator" objname="m1"/></sensor>
+</mujoco>)",
+                     timestep, damping, configs);
+}
+
 /// A Tsui actuator on joint `joint`, armature and damping from the preset, extra <config>s.
 inline std::string TsuiActuator(const std::string& name, const std::string& joint,
                                 const std::string& configs) {

@@ -98,6 +98,12 @@ inline int Microsteps(const Controller& c) {
       c);
 }
 
+/// Whether a controller's bridges switch (a chopper: switching.h's SwitchingUnit).
+inline bool IsSwitching(const Controller& c) {
+  return std::visit([](const auto& unit) { return SwitchingUnit<std::decay_t<decltype(unit)>>; },
+                    c);
+}
+
 /// The speed feedback a controller uses unless the user says otherwise.
 SpeedFeedback DefaultSpeedFeedback(const Controller& c);
 
