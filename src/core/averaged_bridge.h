@@ -37,6 +37,10 @@ namespace mjstepper {
 /// Electrical rotation (rad) an averaged interval spans at most.
 inline constexpr double kAveragedRotation = 0.5;
 
+/// The most intervals one step spends following a command that moves more than this many
+/// microsteps in it (a jump, not a motion): it is read in that many.
+inline constexpr double kMaxAveragedReads = 1000;
+
 /// A phase counts as on its target within this fraction of the bus's current scale (Vbus/R).
 inline constexpr double kOnTargetFraction = 1e-9;
 

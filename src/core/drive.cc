@@ -657,10 +657,14 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
             constants_.rotor_teeth * std::max(std::abs(omega), std::abs(omega_cmd));  // rad/s
         const double rotation_limit =
             electrical > 0 ? kAveragedRotation / electrical : kNever;  // s
-        const double microstep_time = !edges && step_angle_ > 0 && omega_cmd != 0
-                                          ? step_angle_ / std::abs(omega_cmd)
-                                          : kNever;  // s
-        auto label_at = [&](double at) {             // the tick label of time `at` (fractional)
+        // Without edges, an interval ends at the next microstep, but a jump of the command (a
+        // new position without a profile, a step count beyond kMaxEdgesPerAdvance) is read in
+        // at most kMaxAveragedReads intervals, as the interrupts would read it at once.
+        const double microstep_time =
+            !edges && step_angle_ > 0 && omega_cmd != 0
+                ? std::max(step_angle_ / std::abs(omega_cmd), h / kMaxAveragedReads)
+                : kNever;                 // s
+        auto label_at = [&](double at) {  // the tick label of time `at` (fractional)
           return static_cast<double>(k_anchor) + (at - anchor) / period;
         };
         // The table's targets at `at` with the count `count` (microsteps).
