@@ -20,17 +20,26 @@
 // Cost: a few intervals per step at low speed, and per 0.5 rad of electrical rotation at speed,
 // whatever the drive's clock or chopper frequency.
 //
-// What the average leaves out: the ripple itself (its RMS, ΔI/√12, a few % of the copper loss at
-// standstill) and the mean offset of a peak-current chopper's ripple (its decay after the peak).
+// The mean of a chopper's cycle is not its target: a peak-current chopper trips at the target and
+// decays below it; SpreadCycle's blank times, off-times and decaying hysteresis leave its mean
+// 1-2 % below. RippleOffsets measures that offset once at load by running the unit's own Switch
+// rules (the same code the switching mode runs) on one phase whose current moves at the constant
+// slopes (v − R·i* − e)/L of a chopper cycle (tens of µs, ≪ L/R), for a grid of targets and
+// voltage drops; the averaged target is the table's plus the offset there.
+//
+// What the average leaves out: the ripple itself (its RMS, ΔI/√12, a small part of the copper
+// loss).
 #ifndef MJSTEPPER_CORE_AVERAGED_BRIDGE_H_
 #define MJSTEPPER_CORE_AVERAGED_BRIDGE_H_
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "core/motor.h"
 #include "core/power_stage.h"
+#include "core/switching.h"
 
 namespace mjstepper {
 
@@ -65,6 +74,110 @@ inline double DeadbeatVoltage(double target, double free_end, double decay, doub
   const double gain = (1 - decay) / resistance;  // A/V: d i(Δ)/dv
   return gain > 0 ? (target - free_end) / gain : 0.0;
 }
+
+/// The mean of a chopper's steady cycle less its target, A, for one phase of `unit` with target
+/// `target` >= 0 (A) and voltage drop `drop` = R·i* + e (V, in the target's sign): the unit's own
+/// Switch rules run from its Start on a current that moves at (v − drop)/L between its events,
+/// averaged over whole cycles (from one on-phase start to a later one) after the first few. 0 when
+/// there is no cycle: a zero target, or a bus that cannot reach the target (saturated).
+template <class C>
+double CycleMeanOffset(const C& unit, double vbus, double inductance, double target, double drop) {
+  if (!(target > 0)) return 0.0;
+  typename C::State state{};
+  const PowerStage stage{.kind = PowerStageKind::kTwoHBridges, .bus_voltage = vbus};
+  C::SetTarget(0, target, &state);
+  unit.Start(stage, 0.0, &state);
+  const PhaseSwitch& sw = state.phase[0];
+  constexpr int kWarmCycles = 4, kMeanCycles = 8, kMaxEvents = 400;
+  double t = 0, x = target;    // s, A
+  double area = 0, from = -1;  // A·s since the first measured cycle's start, at s
+  int cycles = 0;
+  for (int events = 0; events < kMaxEvents; ++events) {
+    const double slope = (sw.voltage - drop) / inductance;  // A/s
+    double dt = std::numeric_limits<double>::infinity();
+    SwitchReason why = SwitchReason::kTime;
+    if (sw.has_until != 0) dt = std::max(0.0, sw.until - t);
+    if (sw.has_level != 0) {
+      // The first τ >= armed_from − t at which direction·(x + slope·τ − level(t + τ)) >= 0, the
+      // level moving at level_slope until level_stop.
+      const double armed = std::max(0.0, sw.armed_from - t);
+      const double stop = std::max(armed, sw.level_stop - t);
+      auto gap = [&](double tau) { return sw.direction * (x + slope * tau - sw.LevelAt(t + tau)); };
+      double cross = std::numeric_limits<double>::infinity();
+      if (gap(armed) >= 0) {
+        cross = armed;
+      } else {
+        const double rate_ramp = sw.direction * (slope - sw.level_slope);  // on [armed, stop]
+        const double rate_flat = sw.direction * slope;                     // beyond stop
+        const double at_stop = gap(armed) + rate_ramp * (stop - armed);
+        if (rate_ramp > 0 && at_stop >= 0) {
+          cross = armed - gap(armed) / rate_ramp;
+        } else if (rate_flat > 0) {
+          cross = stop - std::min(at_stop, 0.0) / rate_flat;
+        }
+      }
+      if (cross < dt) {
+        dt = cross;
+        why = SwitchReason::kLevel;
+      }
+    }
+    if (!std::isfinite(dt)) return 0.0;  // the current never reaches its comparator: saturated
+    if (from >= 0) area += (x + 0.5 * slope * dt) * dt;
+    x += slope * dt;
+    t += dt;
+    const bool was_on = sw.mode == C::kOn;
+    unit.Switch(stage, why, 0, t, x, &state);
+    if (!was_on && sw.mode == C::kOn) {  // a cycle starts
+      ++cycles;
+      if (cycles == kWarmCycles) {
+        from = t;
+        area = 0;
+      } else if (cycles == kWarmCycles + kMeanCycles) {
+        return area / (t - from) - target;
+      }
+    }
+  }
+  return 0.0;  // no steady cycle found within the bound
+}
+
+/// CycleMeanOffset on a grid, computed once at load and read by bilinear interpolation: targets
+/// 0..peak (A) and drops −Vbus..Vbus (V).
+class RippleOffsets {
+ public:
+  RippleOffsets() = default;
+  template <class C>
+  RippleOffsets(const C& unit, double vbus, double inductance, double peak)
+      : vbus_(vbus), peak_(peak) {
+    offsets_.resize(kTargets * kDrops);
+    for (int i = 0; i < kTargets; ++i) {
+      for (int j = 0; j < kDrops; ++j) {
+        const double target = peak * i / (kTargets - 1);
+        const double drop = vbus * (2.0 * j / (kDrops - 1) - 1);
+        offsets_[i * kDrops + j] = CycleMeanOffset(unit, vbus, inductance, target, drop);
+      }
+    }
+  }
+  /// The offset for a target (signed, A) and the voltage that holds it, R·i* + e (V): in the
+  /// target's sign, 0 for a zero target.
+  double At(double target, double hold_voltage) const {
+    if (offsets_.empty() || target == 0) return 0.0;
+    const double sign = target > 0 ? 1.0 : -1.0;
+    const double u = std::clamp(std::abs(target) / peak_, 0.0, 1.0) * (kTargets - 1);
+    const double w = std::clamp((sign * hold_voltage / vbus_ + 1) / 2, 0.0, 1.0) * (kDrops - 1);
+    const int i = std::min(static_cast<int>(u), kTargets - 2);
+    const int j = std::min(static_cast<int>(w), kDrops - 2);
+    const double fu = u - i, fw = w - j;
+    auto at = [&](int a, int b) { return offsets_[a * kDrops + b]; };
+    const double value = (1 - fu) * ((1 - fw) * at(i, j) + fw * at(i, j + 1)) +
+                         fu * ((1 - fw) * at(i + 1, j) + fw * at(i + 1, j + 1));
+    return sign * value;
+  }
+
+ private:
+  static constexpr int kTargets = 17, kDrops = 33;
+  double vbus_ = 1, peak_ = 1;
+  std::vector<double> offsets_;
+};
 
 }  // namespace mjstepper
 

@@ -167,6 +167,16 @@ Drive::Drive(DriveConfig config) : config_(std::move(config)) {
        {config_.isr_period, config_.compute_delay, config_.isr_period - config_.compute_delay}) {
     if (length > 0) decay_kernels_.push_back(DecayKernel(motor, length));
   }
+  if (config_.fidelity == Fidelity::kAveraged) {
+    std::visit(
+        [&](const auto& unit) {
+          if constexpr (SwitchingUnit<std::decay_t<decltype(unit)>>) {
+            ripple_ =
+                RippleOffsets(unit, config_.bus_voltage, motor.inductance, unit.table.peak_current);
+          }
+        },
+        config_.controller);
+  }
   if (config_.heat) {
     thermal_.emplace(config_.heat->network);
     winding_motor_ = motor;
@@ -694,9 +704,13 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
           // within it: read at its middle); a phase off its target first slews there (SlewTime).
           double t_next = std::min({end, t_edge, t + rotation_limit, t + microstep_time});
           table_at(std::round(command_at(0.5 * (t + t_next)).theta / step_angle_), t_next);
-          const PhaseVector target(unit.phase[0].target, unit.phase[1].target);  // A
+          const PhaseVector table(unit.phase[0].target, unit.phase[1].target);  // A
           const PhaseVector emf = PhaseVector(0, emf_gain) * phasor;  // V, j·Km·ω·e^{jx}
-          const PhaseVector hold = motor.resistance * target + emf;   // V
+          const PhaseVector hold = motor.resistance * table + emf;    // V
+          // The cycle's mean, not the table's entry, is what the phase carries (RippleOffsets).
+          const PhaseVector target =
+              table + PhaseVector(ripple_.At(table.real(), hold.real()),
+                                  ripple_.At(table.imag(), hold.imag()));        // A
           const double tolerance = kOnTargetFraction * vbus / motor.resistance;  // A
           for (int p = 0; p < 2; ++p) {
             const double i = p == 0 ? current.real() : current.imag();

@@ -37,6 +37,7 @@
 #include <variant>
 #include <vector>
 
+#include "core/averaged_bridge.h"
 #include "core/controllers/registry.h"
 #include "core/motion_profile.h"
 #include "core/motor_params.h"
@@ -81,7 +82,7 @@ struct DriveConfig {
   MotionProfile profile;  ///< kNone: ctrl is the command itself
   WindingSolver solver = WindingSolver::kExact;
   Fidelity fidelity = Fidelity::kSwitching;  ///< kAveraged: only on a switching (chopper) drive
-  double rk4_step = 1e-6;  ///< s, step of the kRk4 reference
+  double rk4_step = 1e-6;                    ///< s, step of the kRk4 reference
   /// Heat (SPEC §8, thermal.h): unset, R and Km are the motor's own (its R20, Km20) for ever; set,
   /// the winding's temperature sets R(T) and Km(T) over each step, and the copper loss warms it.
   /// Needs windings (not `ideal_current`) and the exact solver (the kRk4 reference has no
@@ -449,6 +450,7 @@ class Drive {
   double velocity_gain_ = 0;                // its a = 1 − exp(−2π·fc·T), computed once
   std::vector<DecayKernel> decay_kernels_;  // for T, D and T − D, computed once
   double step_angle_ = 0;                   // rad per microstep (StepAngle)
+  RippleOffsets ripple_;                    // averaged chopper: its cycle's mean offset, at load
   std::optional<ThermalNetwork> thermal_;   // with heat: the network, decomposed once
   MotorParams winding_motor_;               // with heat: the motor without its detent list, which
                                             // the winding never reads (copied per step, no

@@ -33,14 +33,16 @@ ModelPtr Rotor(const std::string& driver, const std::string& fidelity, double da
   return m;
 }
 
-// At rest under a constant load τ the averaged phase currents are the table's targets exactly,
-// so the rotor sits at the static load angle of S-4, Km·|i*|·sin δ = τ (no detent on this preset;
-// |i*| the table's standstill current, read from the current_ref signals). The switching twin's
-// mean current differs from its target by its ripple's mean offset.
-TEST(Averaged, AtRestTheRotorSitsAtTheStaticLoadAngle) {
+// At rest under a constant load τ. The averaged phases carry their chopper's cycle mean
+// (RippleOffsets: the unit's own switching rules on a linear cycle), which is the switching twin's
+// mean current, and the rotor sits at the static load angle of S-4 for it,
+// Km·|i|·sin δ = τ (no detent on this preset).
+TEST(Averaged, AtRestTheCurrentIsTheChoppersMeanAndTheAngleTheStaticLoadAngle) {
   constexpr double kLoad = 0.2;  // N·m
   for (const char* driver : {"tmc2209", "a4988"}) {
-    for (const char* fidelity : {"averaged", "switching"}) {
+    double mean_current[2] = {0, 0};  // A: averaged, switching
+    for (int f = 0; f < 2; ++f) {
+      const char* fidelity = f == 0 ? "averaged" : "switching";
       SCOPED_TRACE(fmt::format("{} {}", driver, fidelity));
       const ModelPtr m = Rotor(driver, fidelity, 0.05, 2e-5);
       ASSERT_TRUE(m);
@@ -56,25 +58,23 @@ TEST(Averaged, AtRestTheRotorSitsAtTheStaticLoadAngle) {
         const double* x = d->sensordata;
         // The current vector's lead over the rotor (S-4's δ; the load_angle signal measures from
         // the command, which the table's first entry misses by a few mrad).
-        angle += std::atan2(x[kCurrentRefB], x[kCurrentRefA]) - kNr * d->qpos[0];
+        angle += std::atan2(x[kCurrentB], x[kCurrentA]) - kNr * d->qpos[0];
         current += std::hypot(x[kCurrentA], x[kCurrentB]);
         target += std::hypot(x[kCurrentRefA], x[kCurrentRefB]);
-
         ++n;
       }
       angle /= n, current /= n, target /= n;
-      const double delta = std::asin(kLoad / (kKm * target));  // electrical rad
-      std::printf("%s %s: |i| %.5f A, |i*| %.5f A; load angle %.5f rad, closed form %.5f rad\n",
-                  driver, fidelity, current, target, angle, delta);
-      if (std::string(fidelity) == "averaged") {
-        EXPECT_NEAR(current, target, 1e-9 * target);
-        // 1e-6 rad: the settling's remainder after 0.1 s at a damping ratio of about 1.
-        EXPECT_NEAR(angle, delta, 1e-6);
-      } else {
-        // 3 %: the ripple's mean offset from the target (measured 0.5-2 %).
-        EXPECT_NEAR(angle, delta, 0.03 * delta);
-      }
+      mean_current[f] = current;
+      const double delta = std::asin(kLoad / (kKm * current));  // electrical rad
+      std::printf("%s %s: |i| %.5f A (table %.5f A); δ %.6f rad, closed form %.6f rad\n", driver,
+                  fidelity, current, target, angle, delta);
+      // Averaged: 1e-6 rad, the settling's remainder after 0.1 s at a damping ratio of about 1.
+      // Switching: 1e-3 rad, the ripple's share of the angle (S-4 is not linear in i).
+      EXPECT_NEAR(angle, delta, f == 0 ? 1e-6 : 1e-3);
     }
+    // 2e-4: the offset grid's interpolation. The table's entry is 0.7-1.4 % above both, which
+    // an average without the offset carried.
+    EXPECT_NEAR(mean_current[0] / mean_current[1], 1.0, 2e-4) << driver;
   }
 }
 
@@ -102,7 +102,7 @@ TEST(Averaged, TheBusLimitsTheFirstLostStep) {
   }
   std::printf("averaged: first lost step at %.0f r/min (switching: 1504)\n", lost_at);
   EXPECT_LE(most_voltage, 24.0);
-  // 5 %: measured 1520 r/min, 1.1 % above the switching twin (whose deadbeat intervals are not
+  // 5 %: measured 1476 r/min, 1.9 % below the switching twin (whose deadbeat intervals are not
   // the chopper's square wave); an unlimited current source would hold to 3500 r/min.
   EXPECT_NEAR(lost_at / 1504, 1.0, 0.05);
 }
