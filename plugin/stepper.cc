@@ -392,7 +392,9 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
 
 int Stepper::StateSize(const mjModel* m, int instance) {
   const int actuators = static_cast<int>(BoundActuators(m, instance).size());
-  return actuators == 0 ? 0 : actuators * DriveStateSize(m, instance);
+  // After the actuators' slots, room for the constraint forces of the step just taken (nv), which
+  // the consistent coupling's leader reads at the next step (ConsistentForces).
+  return actuators == 0 ? 0 : actuators * DriveStateSize(m, instance) + m->nv;
 }
 
 void Stepper::Reset(const mjModel* m, mjtNum* plugin_state, int instance) {
@@ -451,7 +453,7 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
     d->actuator_force[a.outadr] =
         torque * drive_->config().transmission.Scale(torque, d->actuator_velocity[a.outadr]);
   }
-  if (leader) ConsistentForces(m, d);
+  if (leader) ConsistentForces(m, d, ConstraintForces(m, d, instance));
 }
 
 double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuator, int output) {
@@ -478,14 +480,16 @@ double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuat
   return force;
 }
 
-void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
+void Stepper::ConsistentForces(const mjModel* m, mjData* d, const mjtNum* constraint) const {
   // C-3 (core/coupling.h) over every started stepper with the consistent coupling in the model
   // (an arm's steppers see each other through M); it writes every one's force. R: their
   // moment rows; G = R·M⁻¹·Rᵀ from M factorised before actuation; a_ext = R·M⁻¹·F with F what
   // MuJoCo will add up as qfrc_smooth + qfrc_constraint less these steppers: this step's passive
   // (without the damping MuJoCo integrates implicitly: the dofs' and the actuators'), bias
   // (gravity, Coriolis), applied and xfrc forces, every other actuator's force, and the previous
-  // step's constraint forces (this step's come after actuation). A stepper has one output
+  // step's constraint forces (this step's come after actuation), `constraint`: kept in the
+  // leader's plugin state at the end of each step (Advance), not read from d->qfrc_constraint,
+  // which no mjSTATE holds, so that mj_setState replays a run bit for bit. A stepper has one output
   // (checked at load); moment rows, actuator_force and actuator_velocity are per output.
   const int na = static_cast<int>(coupled_.size());  // at most this many rows
   const int nv = m->nv;
@@ -536,7 +540,7 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d) const {
   }
   for (int v = 0; v < nv; ++v) {
     force[v] = d->qfrc_passive[v] + m->dof_damping[v] * d->qvel[v] - d->qfrc_bias[v] +
-               d->qfrc_applied[v] + d->qfrc_constraint[v];
+               d->qfrc_applied[v] + constraint[v];
   }
   for (int b = 1; b < m->nbody; ++b) {  // xfrc_applied at each body's centre of mass
     const mjtNum* wrench = d->xfrc_applied + 6 * b;
@@ -582,8 +586,16 @@ bool Stepper::WarnOnce(unsigned cause, const std::string& message) const {
   return true;
 }
 
+mjtNum* Stepper::ConstraintForces(const mjModel* m, mjData* d, int instance) const {
+  return d->plugin_state + m->plugin_stateadr[instance] +
+         static_cast<long>(actuators_.size()) * state_size_;
+}
+
 void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
   if (!drive_) return;
+  if (!coupled_.empty() && coupled_.front().instance == instance) {  // the coupling's leader
+    mju_copy(ConstraintForces(m, d, instance), d->qfrc_constraint, m->nv);
+  }
   const double timestep = m->opt.timestep;  // s
   const double t1 = d->time;  // s, the step's end: MuJoCo advances time before plugins
   auto actuator_name = [m](const Actuator& a) {

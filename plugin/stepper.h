@@ -93,8 +93,13 @@ class Stepper {
   /// C-2 / C-3 of core/coupling.h over every started stepper of coupled_: the torques handed to
   /// MuJoCo this step, from the motors' τ0 and stiffness k, with G and a_ext read from d (mass
   /// matrix, forces); writes each one's actuator_force. Called by the first instance of coupled_
-  /// only, so that the model's coupled system is solved once per step.
-  void ConsistentForces(const mjModel* m, mjData* d) const;
+  /// only, so that the model's coupled system is solved once per step. `constraint`: the
+  /// previous step's qfrc_constraint as kept in the plugin state (ConstraintForces).
+  void ConsistentForces(const mjModel* m, mjData* d, const mjtNum* constraint) const;
+  /// The instance's copy of qfrc_constraint at the end of the last step (nv mjtNums after its
+  /// actuators' slots), written by the coupling's leader in Advance: state, so that restoring a
+  /// state restores it.
+  mjtNum* ConstraintForces(const mjModel* m, mjData* d, int instance) const;
   /// Output `output` of actuator `actuator`: its force this step as far as known during a
   /// plugin's compute (a stepper's motor torque at the step's start, any other actuator's
   /// actuator_force), within the actuator's forcerange.

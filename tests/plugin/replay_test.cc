@@ -1,0 +1,63 @@
+// Issue 30, item 2's requirement: a run restored with mj_setState replays bit for bit under the
+// consistent coupling on a model with a constraint. The coupling reads the previous step's
+// constraint forces (plugin/stepper.cc, ConsistentForces), which no mjSTATE holds when read from
+// d->qfrc_constraint (|Δq| 8e-15 rad here after 2 000 steps, 2.7e-13 on the issue's model); they
+// are now kept in the plugin state, which mjSTATE_INTEGRATION holds.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "test_model.h"
+
+namespace mjstepper::testing {
+namespace {
+
+// A Tsui rotor driving, through a 2:1 joint equality (the constraint carries torque every step),
+// a pendulum that gravity loads, at 120 r/min.
+constexpr char kModel[] = R"(<mujoco><option timestep="5e-5" integrator="implicitfast"/>
+  <extension><plugin plugin="mjstepper.stepper"/></extension>
+  <worldbody>
+    <body name="rotor"><joint name="shaft" type="hinge" axis="0 0 1"/>
+      <geom type="cylinder" size="0.01 0.01" mass="0.001" contype="0" conaffinity="0"/></body>
+    <body name="pendulum" pos="0.2 0 0"><joint name="swing" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.05 0 0" size="0.005" mass="0.05" contype="0"
+            conaffinity="0"/></body>
+  </worldbody>
+  <equality><joint joint1="swing" joint2="shaft" polycoef="0 0.5 0 0 0"/></equality>
+  <actuator><plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4">
+    <config key="motor" value="tsui2009"/><config key="input" value="velocity"/></plugin>
+  </actuator></mujoco>)";
+
+TEST(Replay, SetStateReplaysBitForBitWithAConstraint) {
+  std::string error;
+  const ModelPtr m = LoadModel(kModel, &error);
+  ASSERT_TRUE(m) << error;
+  const mjtState spec = mjSTATE_INTEGRATION;
+  const DataPtr d(mj_makeData(m.get()));
+  for (int k = 0; k < 1000; ++k) {
+    d->ctrl[0] = 12.57;  // rad/s
+    mj_step(m.get(), d.get());
+  }
+  ASSERT_GT(mju_norm(d->qfrc_constraint, m->nv), 0);  // the constraint carries force
+  std::vector<mjtNum> state(mj_stateSize(m.get(), spec));
+  mj_getState(m.get(), d.get(), state.data(), spec);
+  // The original run goes on; a fresh mjData (its qfrc_constraint zero) takes the saved state.
+  const DataPtr replay(mj_makeData(m.get()));
+  mj_setState(m.get(), replay.get(), state.data(), spec);
+  for (int k = 0; k < 2000; ++k) {
+    for (mjData* x : {d.get(), replay.get()}) {
+      x->ctrl[0] = 12.57;
+      mj_step(m.get(), x);
+    }
+  }
+  EXPECT_EQ(std::memcmp(d->qpos, replay->qpos, sizeof(mjtNum) * m->nq), 0)
+      << "qpos differs by " << d->qpos[0] - replay->qpos[0];
+  EXPECT_EQ(std::memcmp(d->qvel, replay->qvel, sizeof(mjtNum) * m->nv), 0);
+  EXPECT_EQ(std::memcmp(d->plugin_state, replay->plugin_state, sizeof(mjtNum) * m->npluginstate),
+            0);
+}
+
+}  // namespace
+}  // namespace mjstepper::testing
