@@ -712,12 +712,14 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
               table + PhaseVector(ripple_.At(table.real(), hold.real()),
                                   ripple_.At(table.imag(), hold.imag()));        // A
           const double tolerance = kOnTargetFraction * vbus / motor.resistance;  // A
+          bool saturated[2] = {false, false};  // the bus cannot move the phase to its target
           for (int p = 0; p < 2; ++p) {
             const double i = p == 0 ? current.real() : current.imag();
             const double i_target = p == 0 ? target.real() : target.imag();
             if (std::abs(i - i_target) <= tolerance) continue;
             const double slew =
                 SlewTime(i, i_target, p == 0 ? hold.real() : hold.imag(), motor.inductance, vbus);
+            saturated[p] = !std::isfinite(slew);
             t_next = std::min(t_next, std::max(t + slew, t + 2 * eps));
           }
           t_next = std::min(t_next, end);
@@ -735,10 +737,12 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
                                 DeadbeatVoltage(target.imag(), free_end.imag(), kernel.decay,
                                                 motor.resistance)})
                         .voltage;
-          // A phase the bus holds back (its deadbeat voltage cut) is driven at ±Vbus until its
-          // current reaches the target, found on the exact solution (switching.h), as the on-time
-          // of a chopper ends at its comparator.
+          // A saturated phase (its deadbeat voltage cut for the whole interval) is driven at
+          // ±Vbus until its current reaches the target, found on the exact solution
+          // (switching.h), as the on-time of a chopper ends at its comparator. (A slewing phase
+          // ends its interval at its slew time already.)
           for (int p = 0; p < 2; ++p) {
+            if (!saturated[p]) continue;
             const double v = p == 0 ? voltage.real() : voltage.imag();
             const double gap =
                 (p == 0 ? target.real() - current.real() : target.imag() - current.imag());  // A
