@@ -43,6 +43,12 @@
 
 namespace mjstepper {
 
+/// An averaged phase's mode (PhaseSwitch::mode, which the unit's own rules do not use in averaged
+/// mode): regulating a target, or, with a zero target, driving its current back to 0 through the
+/// reversed bridge and then shorted (v = 0), as the switching units' IdleBridge does: a shorted
+/// phase carries what the back-EMF drives through R and L, the idle phase's damping.
+inline constexpr double kAveragedRegulating = 0, kAveragedDecaying = 1, kAveragedShorted = 2;
+
 /// Electrical rotation (rad) an averaged interval spans at most.
 inline constexpr double kAveragedRotation = 0.5;
 
@@ -151,7 +157,9 @@ class RippleOffsets {
     offsets_.resize(kTargets * kDrops);
     for (int i = 0; i < kTargets; ++i) {
       for (int j = 0; j < kDrops; ++j) {
-        const double target = peak * i / (kTargets - 1);
+        // (The grid's first row, target 0, is a chopper cycling about a target just above 0, as
+        // a table entry of 1e-16 A is: a zero target idles the bridge, handled apart.)
+        const double target = peak * std::max(static_cast<double>(i), 1e-9) / (kTargets - 1);
         const double drop = vbus * (2.0 * j / (kDrops - 1) - 1);
         offsets_[i * kDrops + j] = CycleMeanOffset(unit, vbus, inductance, target, drop);
       }

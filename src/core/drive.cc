@@ -249,8 +249,14 @@ DriveState Drive::Rest(double time, double theta, double command) const {
         using C = std::decay_t<decltype(unit)>;
         if constexpr (SwitchingUnit<C>) {
           auto state = Unpack<typename C::State>(s.unit.data());
-          unit.Start(stage_, time, &state);
-          voltage = {state.phase[0].voltage, state.phase[1].voltage};
+          if (config_.fidelity == Fidelity::kAveraged) {  // regulating, or idle and shorted
+            for (PhaseSwitch& sw : state.phase) {
+              sw.mode = sw.target == 0 ? kAveragedShorted : kAveragedRegulating;
+            }
+          } else {
+            unit.Start(stage_, time, &state);
+            voltage = {state.phase[0].voltage, state.phase[1].voltage};
+          }
           Pack(state, s.unit.data());
         }
       },
@@ -713,10 +719,18 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
                                   ripple_.At(table.imag(), hold.imag()));        // A
           const double tolerance = kOnTargetFraction * vbus / motor.resistance;  // A
           bool saturated[2] = {false, false};  // the bus cannot move the phase to its target
+          bool idle[2] = {false, false};       // a zero target: decaying to 0, then shorted
           for (int p = 0; p < 2; ++p) {
             const double i = p == 0 ? current.real() : current.imag();
             const double i_target = p == 0 ? target.real() : target.imag();
-            if (std::abs(i - i_target) <= tolerance) continue;
+            PhaseSwitch& sw = unit.phase[p];
+            idle[p] = (p == 0 ? table.real() : table.imag()) == 0;
+            if (!idle[p]) {
+              sw.mode = kAveragedRegulating;
+            } else if (sw.mode != kAveragedShorted) {
+              sw.mode = std::abs(i) <= tolerance ? kAveragedShorted : kAveragedDecaying;
+            }
+            if (idle[p] || std::abs(i - i_target) <= tolerance) continue;
             const double slew =
                 SlewTime(i, i_target, p == 0 ? hold.real() : hold.imag(), motor.inductance, vbus);
             saturated[p] = !std::isfinite(slew);
@@ -737,12 +751,22 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
                                 DeadbeatVoltage(target.imag(), free_end.imag(), kernel.decay,
                                                 motor.resistance)})
                         .voltage;
+          for (int p = 0; p < 2; ++p) {  // an idle phase: reversed to 0, then shorted
+            if (!idle[p]) continue;
+            const double i = p == 0 ? current.real() : current.imag();
+            const double v = unit.phase[p].mode == kAveragedShorted ? 0.0 : (i > 0 ? -vbus : vbus);
+            voltage = p == 0 ? PhaseVector(v, voltage.imag()) : PhaseVector(voltage.real(), v);
+            if (v == 0) continue;
+            const double reach = FirstCrossing(motor, *speed, current, voltage, phasor, p,
+                                               i > 0 ? -1 : 1, 0.0, 0.0, 0.0, 2 * eps, length);
+            if (reach > 2 * eps && reach < length) t_next = std::min(t_next, t + reach);
+          }
           // A saturated phase (its deadbeat voltage cut for the whole interval) is driven at
           // ±Vbus until its current reaches the target, found on the exact solution
           // (switching.h), as the on-time of a chopper ends at its comparator. (A slewing phase
           // ends its interval at its slew time already.)
           for (int p = 0; p < 2; ++p) {
-            if (!saturated[p]) continue;
+            if (!saturated[p] || idle[p]) continue;
             const double v = p == 0 ? voltage.real() : voltage.imag();
             const double gap =
                 (p == 0 ? target.real() - current.real() : target.imag() - current.imag());  // A

@@ -102,7 +102,7 @@ TEST(Averaged, TheBusLimitsTheFirstLostStep) {
   }
   std::printf("averaged: first lost step at %.0f r/min (switching: 1504)\n", lost_at);
   EXPECT_LE(most_voltage, 24.0);
-  // 5 %: measured 1476 r/min, 1.9 % below the switching twin (whose deadbeat intervals are not
+  // 5 %: measured 1471 r/min, 2.2 % below the switching twin (whose deadbeat intervals are not
   // the chopper's square wave); an unlimited current source would hold to 3500 r/min.
   EXPECT_NEAR(lost_at / 1504, 1.0, 0.05);
 }
