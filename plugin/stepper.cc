@@ -392,9 +392,10 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
 
 int Stepper::StateSize(const mjModel* m, int instance) {
   const int actuators = static_cast<int>(BoundActuators(m, instance).size());
-  // After the actuators' slots, room for the constraint forces of the step just taken (nv), which
-  // the consistent coupling's leader reads at the next step (ConsistentForces).
-  return actuators == 0 ? 0 : actuators * DriveStateSize(m, instance) + m->nv;
+  // After the actuators' slots, room for the constraint forces of the step just taken (a flag that
+  // they are there, then nv), which the consistent coupling's leader reads at the next step
+  // (ConsistentForces).
+  return actuators == 0 ? 0 : actuators * DriveStateSize(m, instance) + 1 + m->nv;
 }
 
 void Stepper::Reset(const mjModel* m, mjtNum* plugin_state, int instance) {
@@ -453,7 +454,12 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
     d->actuator_force[a.outadr] =
         torque * drive_->config().transmission.Scale(torque, d->actuator_velocity[a.outadr]);
   }
-  if (leader) ConsistentForces(m, d, ConstraintForces(m, d, instance));
+  if (leader) {
+    // The last step's constraint forces as kept in the state (so that a restored state replays
+    // bit for bit); before any step (a reset, a new mjData) MuJoCo's own, as mj_forward left them.
+    const mjtNum* kept = ConstraintForces(m, d, instance);
+    ConsistentForces(m, d, kept[0] != 0 ? kept + 1 : d->qfrc_constraint);
+  }
 }
 
 double Stepper::OtherActuatorForce(const mjModel* m, const mjData* d, int actuator, int output) {
@@ -594,7 +600,9 @@ mjtNum* Stepper::ConstraintForces(const mjModel* m, mjData* d, int instance) con
 void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
   if (!drive_) return;
   if (!coupled_.empty() && coupled_.front().instance == instance) {  // the coupling's leader
-    mju_copy(ConstraintForces(m, d, instance), d->qfrc_constraint, m->nv);
+    mjtNum* kept = ConstraintForces(m, d, instance);
+    kept[0] = 1;  // kept from now on
+    mju_copy(kept + 1, d->qfrc_constraint, m->nv);
   }
   const double timestep = m->opt.timestep;  // s
   const double t1 = d->time;  // s, the step's end: MuJoCo advances time before plugins

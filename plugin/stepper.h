@@ -96,9 +96,9 @@ class Stepper {
   /// only, so that the model's coupled system is solved once per step. `constraint`: the
   /// previous step's qfrc_constraint as kept in the plugin state (ConstraintForces).
   void ConsistentForces(const mjModel* m, mjData* d, const mjtNum* constraint) const;
-  /// The instance's copy of qfrc_constraint at the end of the last step (nv mjtNums after its
-  /// actuators' slots), written by the coupling's leader in Advance: state, so that restoring a
-  /// state restores it.
+  /// The instance's copy of qfrc_constraint at the end of the last step (after its actuators'
+  /// slots: a flag, 1 once a step has written it, then nv mjtNums), written by the coupling's
+  /// leader in Advance: state, so that restoring a state restores it.
   mjtNum* ConstraintForces(const mjModel* m, mjData* d, int instance) const;
   /// Output `output` of actuator `actuator`: its force this step as far as known during a
   /// plugin's compute (a stepper's motor torque at the step's start, any other actuator's
