@@ -742,9 +742,9 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
             if (!speed) speed.emplace(motor, omega, h, s->rotor_phasor(), phasor1);
             kernel = WindingKernel(*speed, DecayFor(winding, length));
           }
-          IntervalEnergy unused;
+          // The end current with v = 0 (no energies: nullptr).
           const PhaseVector free_end =
-              AdvanceInterval(motor, kernel, current, {0, 0}, phasor, &unused);
+              AdvanceInterval(motor, kernel, current, {0, 0}, phasor, nullptr);
           voltage = stage_
                         .Apply({DeadbeatVoltage(target.real(), free_end.real(), kernel.decay,
                                                 motor.resistance),
