@@ -382,9 +382,9 @@ DriveConfig Parse(const AttributeSource& a) {
   if (a.Choice(kAttrFidelity, "switching", {"switching", "averaged"}) == "averaged") {
     if (!IsSwitching(c.controller)) {
       ThrowBad(kAttrFidelity, "averaged",
-               fmt::format("has no averaged form for drive {} yet (chopper and spreadcycle have "
-                           "one); use fidelity = switching",
-                           drive));
+               fmt::format("has no averaged form for drive {} yet ({} have one); use fidelity = "
+                           "switching",
+                           drive, fmt::join(SwitchingControllerNames(), " and ")));
     }
     c.fidelity = Fidelity::kAveraged;
   }

@@ -14,9 +14,10 @@
 namespace mjstepper::testing {
 namespace {
 
-// A Tsui rotor driving, through a 2:1 joint equality (the constraint carries torque every step),
-// a pendulum that gravity loads, at 120 r/min.
-constexpr char kModel[] = R"(<mujoco><option timestep="5e-5" integrator="implicitfast"/>
+// A rotor driving, through a 2:1 joint equality (the constraint carries torque every step), a
+// pendulum that gravity loads, at 120 r/min; its stepper `actuator` (a <plugin> on joint shaft).
+std::string Model(const std::string& actuator) {
+  return fmt::format(R"(<mujoco><option timestep="5e-5" integrator="implicitfast"/>
   <extension><plugin plugin="mjstepper.stepper"/></extension>
   <worldbody>
     <body name="rotor"><joint name="shaft" type="hinge" axis="0 0 1"/>
@@ -26,13 +27,27 @@ constexpr char kModel[] = R"(<mujoco><option timestep="5e-5" integrator="implici
             conaffinity="0"/></body>
   </worldbody>
   <equality><joint joint1="swing" joint2="shaft" polycoef="0 0.5 0 0 0"/></equality>
-  <actuator><plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4">
-    <config key="motor" value="tsui2009"/><config key="input" value="velocity"/></plugin>
-  </actuator></mujoco>)";
+  <actuator>{}</actuator></mujoco>)",
+                     actuator);
+}
 
-TEST(Replay, SetStateReplaysBitForBitWithAConstraint) {
+// The Tsui PI drive (at its interrupts) and the averaged SpreadCycle (whose phases' modes are
+// state too).
+class Replay : public ::testing::TestWithParam<const char*> {};
+
+INSTANTIATE_TEST_SUITE_P(
+    Drives, Replay,
+    ::testing::Values(
+        R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4">)"
+        R"(<config key="motor" value="tsui2009"/><config key="input" value="velocity"/></plugin>)",
+        R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="8.2e-6">)"
+        R"(<config key="motor" value="17hs19_2004s1"/><config key="driver" value="tmc2209"/>)"
+        R"(<config key="fidelity" value="averaged"/><config key="input" value="velocity"/>)"
+        R"(</plugin>)"));
+
+TEST_P(Replay, SetStateReplaysBitForBitWithAConstraint) {
   std::string error;
-  const ModelPtr m = LoadModel(kModel, &error);
+  const ModelPtr m = LoadModel(Model(GetParam()), &error);
   ASSERT_TRUE(m) << error;
   const mjtState spec = mjSTATE_INTEGRATION;
   const DataPtr d(mj_makeData(m.get()));

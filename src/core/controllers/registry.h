@@ -104,6 +104,16 @@ inline bool IsSwitching(const Controller& c) {
                     c);
 }
 
+/// The names of the controllers whose bridges switch (the ones an averaged fidelity covers), in
+/// registry order.
+inline std::vector<std::string> SwitchingControllerNames() {
+  std::vector<std::string> names;
+  ForEachControllerType([&]<class C>() {
+    if constexpr (SwitchingUnit<C>) names.push_back(C::kName);
+  });
+  return names;
+}
+
 /// The speed feedback a controller uses unless the user says otherwise.
 SpeedFeedback DefaultSpeedFeedback(const Controller& c);
 

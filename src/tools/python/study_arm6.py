@@ -12,13 +12,11 @@ import csv
 import math
 import os
 import re
-import subprocess
-import sys
 import tempfile
 import time
 
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
-CLI = os.path.join(ROOT, "build", "mjstepper")
+from study_common import ROOT, cli, move_args, read_table
+
 MODEL = "models/arm6.xml"
 RPM = 60 / (2 * math.pi)
 JOINTS = ["j1", "j2", "j3", "j4", "j5", "j6"]
@@ -46,32 +44,13 @@ SMALLER = {"j1": "qsh4218_41", "j2": "qsh4218_41", "j3": "qsh4218_41", "j4": "qs
            "j5": "qsh4218_35"}
 
 
-def move_args():
-    args = []
-    for joint, angles in POSES.items():
-        args += ["--move", f"{joint}=" + ",".join(str(a) for a in angles) + "deg"]
-    return args
-
-
 def motor_args(motors):
     return [a for joint, motor in motors.items() for a in ("--set", f"{joint}.motor={motor}")]
 
 
-def cli(args):
-    result = subprocess.run([CLI] + args, cwd=ROOT, capture_output=True, text=True)
-    if result.returncode != 0:
-        sys.exit(f"mjstepper {' '.join(args)} failed:\n{result.stderr}")
-    return result.stdout
-
-
-def read_table(path):
-    with open(path, newline="") as f:
-        return {row["joint"]: row for row in csv.DictReader(f)}
-
-
 def size(model, out, motors, extra=()):
     """Sizes the cycle with these motors; the table (joint → row) of OUT.csv."""
-    cli(["size", model, *move_args(), *motor_args(motors), "--dwell", str(DWELL), "--cycles",
+    cli(["size", model, *move_args(POSES), *motor_args(motors), "--dwell", str(DWELL), "--cycles",
          str(CYCLES), "--mass", f"payload={PAYLOAD}", "--allow-coarse", "--quiet", "--out", out,
          *extra])
     return read_table(os.path.join(ROOT, out + ".csv"))  # out may be absolute

@@ -16,13 +16,11 @@ Writes docs/studies/parol6.md and renders/parol6/.
 import concurrent.futures
 import csv
 import os
-import subprocess
-import sys
 import tempfile
 import time
 
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
-CLI = os.path.join(ROOT, "build", "mjstepper")
+from study_common import ROOT, cli, move_args, read_table
+
 MODEL = "models/parol6.xml"
 JOINTS = ["j1", "j2", "j3", "j4", "j5", "j6"]
 IRUN = 31  # every joint's run current scale on our TMC5160 (GLOBALSCALER scales the rest)
@@ -43,27 +41,8 @@ PAYLOADS = [0.25 * k for k in range(1, 17)]  # kg, the slip scan: 0.25 to 4 kg
 HOLD_TIME = 1.0  # s holding the standby pose
 
 
-def cli(args):
-    result = subprocess.run([CLI] + args, cwd=ROOT, capture_output=True, text=True)
-    if result.returncode != 0:
-        sys.exit(f"mjstepper {' '.join(args)} failed:\n{result.stderr}")
-    return result.stdout
-
-
-def move_args():
-    args = []
-    for joint, angles in POSES.items():
-        args += ["--move", f"{joint}=" + ",".join(str(a) for a in angles) + "deg"]
-    return args
-
-
-def read_table(path):
-    with open(path, newline="") as f:
-        return {row["joint"]: row for row in csv.DictReader(f)}
-
-
 def size(out, payload, extra=(), cycles=CYCLES, points=12):
-    cli(["size", MODEL, *move_args(), "--dwell", str(DWELL), "--cycles", str(cycles),
+    cli(["size", MODEL, *move_args(POSES), "--dwell", str(DWELL), "--cycles", str(cycles),
          "--pullout-points", str(points), "--mass", f"payload={payload}", "--quiet", "--out", out,
          *extra])
     return read_table(os.path.join(ROOT, out + ".csv"))

@@ -1,0 +1,32 @@
+"""What the arm studies (study_arm6.py, study_parol6.py) share: the project's root, its command,
+and the `size` table's reader. Each study calls the one C++ experiment through `mjstepper`."""
+
+import csv
+import os
+import subprocess
+import sys
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
+CLI = os.path.join(ROOT, "build", "mjstepper")
+
+
+def cli(args):
+    """Runs `mjstepper ARGS` from the root (no shell); its stdout, or exits with its stderr."""
+    result = subprocess.run([CLI] + args, cwd=ROOT, capture_output=True, text=True)
+    if result.returncode != 0:
+        sys.exit(f"mjstepper {' '.join(args)} failed:\n{result.stderr}")
+    return result.stdout
+
+
+def move_args(poses):
+    """`--move JOINT=A,B,...deg` for each joint's poses (degrees)."""
+    args = []
+    for joint, angles in poses.items():
+        args += ["--move", f"{joint}=" + ",".join(str(a) for a in angles) + "deg"]
+    return args
+
+
+def read_table(path):
+    """A `size` table (PREFIX.csv): joint → its row."""
+    with open(path, newline="") as f:
+        return {row["joint"]: row for row in csv.DictReader(f)}
