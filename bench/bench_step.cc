@@ -7,7 +7,7 @@
 //   valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Round*'
 //       build/bench_step 20000 stepper    (or stepper1mhz, dcmotor, dcmotor_ripple):
 //   Ir / (8·20000) per step. The 6-DOF arm: bench_step 1000 arm6 [TIMESTEP] (or arm6_ideal,
-//   arm6_servo); bench/arm_cost.sh runs them.
+//   arm6_servo, arm6_substepped; parol6, parol6_substepped); bench/arm_cost.sh runs them.
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
 
@@ -47,13 +47,14 @@ Stepping Load(const std::string& path, double ctrl, const std::string& configs =
     xml.insert(at, configs);
   }
   if (!timestep.empty()) {
-    const std::string own = R"(timestep="1e-3")";
+    const std::string own = R"(<option timestep=")";
     const size_t at = xml.find(own);
     if (at == std::string::npos) {
       fmt::print(stderr, "{}: no {} to replace\n", path, own);
       std::exit(1);
     }
-    xml.replace(at, own.size(), fmt::format(R"(timestep="{}")", timestep));
+    const size_t begin = at + own.size();
+    xml.replace(begin, xml.find('"', begin) - begin, timestep);
   }
   // Another drive (issue 17's chopper, SpreadCycle, StealthChop) in place of the PI loop, at the
   // same peak current (1.9 A): the model's own drive key removed, as MJCF keeps the first.
@@ -137,12 +138,18 @@ int main(int argc, char** argv) {
   // ideal current sources) or "arm6_servo" (the same arm on MuJoCo's position servos), holding the
   // standby pose from qpos0 against gravity, the plugin alone (no probe sensors, unlike `mjstepper
   // run`); an optional timestep (s) replaces their 1 ms.
-  if (only == "arm6" || only == "arm6_servo" || only == "arm6_ideal") {
-    const Stepping s =
-        only == "arm6_ideal"
-            ? Load(dir + "arm6.xml", 0.0, R"(<config key="drive" value="ideal_current"/>)",
-                   argc > 3 ? argv[3] : "")
-            : Load(dir + only + ".xml", 0.0, "", argc > 3 ? argv[3] : "");
+  // "parol6" (models/parol6.xml, six TMC5160s in StealthChop) likewise; "arm6_substepped" and
+  // "parol6_substepped" with the sub-stepped rotor (coupling = substepped, SPEC §11).
+  if (only == "arm6" || only == "arm6_servo" || only == "arm6_ideal" || only == "parol6" ||
+      only == "arm6_substepped" || only == "parol6_substepped") {
+    const std::string file = only.starts_with("parol6") ? "parol6"
+                             : only == "arm6_servo"     ? "arm6_servo"
+                                                        : "arm6";
+    const std::string configs =
+        only == "arm6_ideal"            ? R"(<config key="drive" value="ideal_current"/>)"
+        : only.ends_with("_substepped") ? R"(<config key="coupling" value="substepped"/>)"
+                                        : "";
+    const Stepping s = Load(dir + file + ".xml", 0.0, configs, argc > 3 ? argv[3] : "");
     double best = 1e300;
     for (int round = 0; round < 8; ++round) best = std::min(best, Round(s, steps));
     fmt::print("{} at {:g} s: {:.1f} ns/step, {:.3g} s per simulated second\n", only,

@@ -182,7 +182,13 @@ constexpr AttributeSpec kAttrCoupling{
     "rotor (its stiffness −∂τ/∂θ this step, the rotor-side inertia and the other forces' "
     "acceleration read from `mjData`), so the rotor rings at its own frequency at coarse "
     "timesteps (ωn·h up to about 1) and static equilibria stay where they are. `explicit`: the "
-    "torque at the step's start, whose ring is fast by (ωn·h)²/24."};
+    "torque at the step's start, whose ring is fast by (ωn·h)²/24. `substepped`: the rotors and "
+    "their drives integrated in sub-steps within MuJoCo's step against the load as `mjData` "
+    "presents it at the step's start (`src/core/substep.h`), their end angles handed to MuJoCo "
+    "as its positions and their end speeds kept in the plugin's state, so the ring, the ripple "
+    "and slips are resolved at coarse timesteps; Euler, implicit and implicitfast only, no "
+    "actuator `dyntype`, and the model's steppers coupled one way (`consistent` or "
+    "`substepped`, `explicit` beside either)."};
 
 constexpr AttributeSpec kAttrFidelity{
     "fidelity", "name", "`switching`", "—",
@@ -472,10 +478,11 @@ std::variant<StepperConfig, std::string> ParseStepperConfig(const AttributeReade
   StepperConfig c{.drive = std::get<DriveConfig>(drive)};
   try {
     c.gauge = AttributeSource(read).Choice(kAttrGauge, "on", {"on", "off"}) == "on";
-    c.coupling = AttributeSource(read).Choice(kAttrCoupling, "consistent",
-                                              {"consistent", "explicit"}) == "explicit"
-                     ? Coupling::kExplicit
-                     : Coupling::kConsistent;
+    const std::string coupling = AttributeSource(read).Choice(
+        kAttrCoupling, "consistent", {"consistent", "explicit", "substepped"});
+    c.coupling = coupling == "explicit"     ? Coupling::kExplicit
+                 : coupling == "substepped" ? Coupling::kSubstepped
+                                            : Coupling::kConsistent;
   } catch (const std::exception& e) {
     return std::string(e.what());
   }

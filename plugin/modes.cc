@@ -183,7 +183,11 @@ RuleMode ToRuleMode(const Mode& mode, int index) {
 
 TimestepVerdict JudgeModelTimestep(const mjModel* m, const std::vector<ModalStepper>& steppers,
                                    int key) {
-  const std::vector<Mode> modes = ComputeModes(m, steppers, key, /*worst_case=*/true);
+  std::vector<ModalStepper> judged = steppers;
+  for (ModalStepper& s : judged) {
+    if (s.substepped) s.stiffness = s.detent_stiffness = 0;
+  }
+  const std::vector<Mode> modes = ComputeModes(m, judged, key, /*worst_case=*/true);
   std::vector<RuleMode> rule;
   for (size_t i = 0; i < modes.size(); ++i)
     rule.push_back(ToRuleMode(modes[i], static_cast<int>(i)));

@@ -3,10 +3,10 @@
 // stiffness, tendon stiffness along the tendon's Jacobian) and each stepper's holding stiffness T'
 // along its actuator's moment row (which holds the gear: joint and tendon transmissions alike),
 // in the null space of the equality constraints and the joint and tendon limits active there
-// (held; contacts are not: modes.cc, Held). Gravity's own stiffness, dof and tendon friction and ball or free joints' springs
-// are left out; rigid-body modes (ω = 0) are dropped. Used by the plugin's load warning and by the
-// tools (`mjstepper info`, `run`), so that both judge the timestep on the same numbers
-// (core/timestep_rule.h).
+// (held; contacts are not: modes.cc, Held). Gravity's own stiffness, dof and tendon friction and
+// ball or free joints' springs are left out; rigid-body modes (ω = 0) are dropped. Used by the
+// plugin's load warning and by the tools (`mjstepper info`, `run`), so that both judge the timestep
+// on the same numbers (core/timestep_rule.h).
 #ifndef MJSTEPPER_PLUGIN_MODES_H_
 #define MJSTEPPER_PLUGIN_MODES_H_
 
@@ -28,6 +28,9 @@ struct ModalStepper {
   double detent_stiffness = 0;  ///< Σh h·Nr·Kdh, N·m/rad: the detent's worst case
   /// The largest ω·h its coupling keeps within 1 % (core/coupling.h, MaxOmegaTimesStep).
   double max_omega_h = kMaxOmegaTimesStep;
+  /// Sub-stepped (core/substep.h): its rotor's spring is integrated within the step, not by
+  /// MuJoCo, so the timestep rule leaves it out of the modes it judges.
+  bool substepped = false;
 };
 
 /// A stepper takes part in a mode when at least this fraction of the mode's potential energy is in
@@ -55,7 +58,8 @@ std::vector<Mode> ComputeModes(const mjModel* m, const std::vector<ModalStepper>
                                int key = -1, bool worst_case = false);
 
 /// The timestep rule on the model's worst-case modes (core/timestep_rule.h), at m->opt.timestep
-/// and kMaxOmegaTimesStep.
+/// and the strictest coupling's ω·h; sub-stepped steppers' springs are left out (the rule then
+/// follows the model's mechanical modes: SPEC §11).
 TimestepVerdict JudgeModelTimestep(const mjModel* m, const std::vector<ModalStepper>& steppers,
                                    int key = -1);
 

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cmath>
 #include <exception>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -15,6 +16,7 @@
 
 #include "config.h"
 #include "core/signals.h"
+#include "core/substep.h"
 #include "modes.h"
 
 namespace mjstepper::plugin {
@@ -22,13 +24,12 @@ namespace {
 
 static_assert(sizeof(mjtNum) == sizeof(double), "DriveState is stored as mjtNum");
 
-// The state layout of an instance's drive, from its config (0 doubles if the config is bad: init
-// then fails with the message).
-int DriveStateSize(const mjModel* m, int instance) {
-  const auto parsed = ParseConfig(
+// The instance's parsed config, or null if it is bad (init then fails with the message).
+std::optional<StepperConfig> InstanceConfig(const mjModel* m, int instance) {
+  const auto parsed = ParseStepperConfig(
       [m, instance](const char* name) { return mj_getPluginConfig(m, instance, name); });
-  if (const DriveConfig* c = std::get_if<DriveConfig>(&parsed)) return MakeStateLayout(*c).total();
-  return 0;
+  if (const StepperConfig* c = std::get_if<StepperConfig>(&parsed)) return *c;
+  return std::nullopt;
 }
 
 std::string NameOf(const mjModel* m, int adr) { return adr >= 0 ? m->names + adr : ""; }
@@ -203,7 +204,8 @@ void Stepper::AddModalSteppers(const mjModel* m, std::vector<ModalStepper>* out)
                     .name = NameOf(m, m->name_actuatoradr[a.id]),
                     .stiffness = drive_->HoldingStiffness(),
                     .detent_stiffness = drive_->DetentStiffness(),
-                    .max_omega_h = MaxOmegaTimesStep(coupling_)});
+                    .max_omega_h = MaxOmegaTimesStep(coupling_),
+                    .substepped = coupling_ == Coupling::kSubstepped});
   }
 }
 
@@ -355,17 +357,42 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
               .c_str());
     }
   }
-  // The model's steppers with the consistent coupling (this one's and every other instance's), in
-  // actuator order, for C-3 each step: which they are depends only on the model.
+  if (stepper->coupling_ == Coupling::kSubstepped) {
+    // The sub-stepped rotor lands MuJoCo's Euler step (damping implicit) on its angles: one
+    // derivative evaluation per step, and the command known at the step's start.
+    if (m->opt.integrator == mjINT_RK4) {
+      return fail(
+          "coupling = \"substepped\": the model's integrator is RK4, whose four stages see four "
+          "states; use integrator=\"Euler\" or \"implicitfast\", or coupling=\"consistent\"");
+    }
+    for (const Actuator& a : stepper->actuators_) {
+      if (a.actadr >= 0) {
+        return fail_for(
+            fmt::format("actuator '{}' (id {})", NameOf(m, m->name_actuatoradr[a.id]), a.id),
+            "coupling = \"substepped\" takes ctrl as the command at the step's start: "
+            "remove the actuator's dyntype, or use coupling=\"consistent\"");
+      }
+    }
+  }
+  // The model's steppers with the consistent or substepped coupling (this one's and every other
+  // instance's), in actuator order, for C-3 or R-1 each step: which they are depends only on the
+  // model, and they are coupled one way.
   for (int j = 0; j < m->nactuator; ++j) {
     const int owner = m->actuator_plugin[j];
     if (owner < 0 || !IsStepperInstance(m, owner)) continue;
     // Its coupling as its own instance parses it (the same parser: trimmed, defaulted); a config
     // that does not parse is refused by its own instance's load.
-    const auto parsed = ParseStepperConfig(
-        [m, owner](const char* name) { return mj_getPluginConfig(m, owner, name); });
-    const auto* config = std::get_if<StepperConfig>(&parsed);
-    if (config == nullptr || config->coupling != Coupling::kConsistent) continue;
+    const std::optional<StepperConfig> config = InstanceConfig(m, owner);
+    if (!config || config->coupling == Coupling::kExplicit) continue;
+    if (stepper->coupling_ != Coupling::kExplicit && config->coupling != stepper->coupling_) {
+      return fail(fmt::format(
+          "coupling = \"{}\" here but \"{}\" on actuator '{}' (id {}): the model's steppers "
+          "are solved together, one way; set one coupling on all (\"explicit\" may sit beside "
+          "either)",
+          stepper->coupling_ == Coupling::kSubstepped ? "substepped" : "consistent",
+          config->coupling == Coupling::kSubstepped ? "substepped" : "consistent",
+          NameOf(m, m->name_actuatoradr[j]), j));
+    }
     const std::vector<int> owned = BoundActuators(m, owner);  // a drive's slots, in id order
     const auto slot = std::find(owned.begin(), owned.end(), j) - owned.begin();
     stepper->coupled_.push_back({.actuator = j,
@@ -379,6 +406,32 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
   if (na > 0 && stepper->coupled_.front().instance == instance) {
     stepper->scratch_outputs_.resize(na);
     stepper->scratch_.resize(3 * na + na * m->nv + m->nv + na * na + na);
+    if (stepper->coupling_ == Coupling::kSubstepped) {
+      // The dofs MuJoCo's Euler step damps implicitly (engine_forward.c, mj_EulerSkip): dof
+      // damping plus the damping of the actuators with a joint transmission on the dof's joint
+      // (times gear²).
+      std::vector<double> damping(m->dof_damping, m->dof_damping + m->nv);
+      for (int j = 0; j < m->nactuator; ++j) {
+        if (m->actuator_trntype[j] != mjTRN_JOINT && m->actuator_trntype[j] != mjTRN_JOINTINPARENT)
+          continue;
+        const int joint = m->actuator_trnid[2 * j];
+        if (m->jnt_type[joint] != mjJNT_HINGE && m->jnt_type[joint] != mjJNT_SLIDE) continue;
+        const double gear = m->actuator_gear[6 * m->actuator_outadr[j]];
+        damping[m->jnt_dofadr[joint]] += m->actuator_damping[j] * gear * gear;
+      }
+      for (int v = 0; v < m->nv; ++v) {
+        if (damping[v] > 0) {
+          stepper->damped_dofs_.push_back(v);
+          stepper->dof_damping_.push_back(damping[v]);
+        }
+      }
+      const long s = static_cast<long>(stepper->damped_dofs_.size());
+      stepper->substep_states_.resize(na);
+      // θ, ω, c0, a_x, commands, statuses, chord, τ; P and B; U, Q, h·D, Eᵀ·M⁻¹·F; M⁻¹·F; the
+      // damped dofs' unit columns, then M⁻¹ of them; R-1's 4·n.
+      stepper->substep_scratch_.resize(8 * na + 2 * na * na + na * s + s * s + 2 * s + m->nv +
+                                       2 * s * m->nv + 4 * na);
+    }
   }
   for (int j = 0; j < m->njnt; ++j) {
     if (!m->jnt_actgravcomp[j]) continue;
@@ -392,10 +445,15 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
 
 int Stepper::StateSize(const mjModel* m, int instance) {
   const int actuators = static_cast<int>(BoundActuators(m, instance).size());
+  if (actuators == 0) return 0;
   // After the actuators' slots, room for the constraint forces of the step just taken (a flag that
   // they are there, then nv), which the consistent coupling's leader reads at the next step
-  // (ConsistentForces).
-  return actuators == 0 ? 0 : actuators * DriveStateSize(m, instance) + 1 + m->nv;
+  // (ConsistentForces); substepped, then each slot's SubstepSlot.
+  const std::optional<StepperConfig> c = InstanceConfig(m, instance);
+  const int drive = c ? MakeStateLayout(c->drive).total() : 0;
+  const int substep =
+      c && c->coupling == Coupling::kSubstepped ? actuators * (kSubstepExtras + drive) : 0;
+  return actuators * drive + 1 + m->nv + substep;
 }
 
 void Stepper::Reset(const mjModel* m, mjtNum* plugin_state, int instance) {
@@ -446,7 +504,10 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
     // core state suffices once the drive has started.
     const double* values = Slot(m, d, instance, slot);
     const bool started = Drive::Started(values);
-    if (started && coupling_ == Coupling::kConsistent) continue;  // the leader's solve writes it
+    // The leader's solve writes it (substepped: from the start).
+    if ((started && coupling_ == Coupling::kConsistent) || coupling_ == Coupling::kSubstepped) {
+      continue;
+    }
     const double torque =
         started ? drive_->StoredTorque(values, d->actuator_length[a.outadr])
                 : drive_->Torque(CurrentState(m, d, instance, slot), d->actuator_length[a.outadr]);
@@ -499,6 +560,9 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, const mjtNum* constr
   // (checked at load); moment rows, actuator_force and actuator_velocity are per output.
   const int na = static_cast<int>(coupled_.size());  // at most this many rows
   const int nv = m->nv;
+  // Substepped: every member from its first step (its drive starts at rest then), and F with the
+  // damping MuJoCo integrates implicitly, which R-2 accounts for.
+  const bool substepped = coupling_ == Coupling::kSubstepped;
   int* outputs = scratch_outputs_.data();  // the started ones' outputs
   mjtNum* torque = scratch_.data();        // τ0 (N·m), then k (N·m/rad)
   mjtNum* stiffness = torque + na;
@@ -506,7 +570,7 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, const mjtNum* constr
   for (const CoupledActuator& c : coupled_) {
     const Stepper& s = FromData(d, c.instance);
     const double* values = s.Slot(m, d, c.instance, c.slot);
-    if (!s.drive_ || s.coupling_ != Coupling::kConsistent || !Drive::Started(values)) continue;
+    if (!s.drive_ || s.coupling_ != coupling_ || (!substepped && !Drive::Started(values))) continue;
     const double theta = d->actuator_length[c.output];
     outputs[n] = c.output;
     std::tie(torque[n], stiffness[n]) = s.drive_->StoredTorqueAndStiffness(values, theta);
@@ -545,8 +609,8 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, const mjtNum* constr
     }
   }
   for (int v = 0; v < nv; ++v) {
-    force[v] = d->qfrc_passive[v] + m->dof_damping[v] * d->qvel[v] - d->qfrc_bias[v] +
-               d->qfrc_applied[v] + constraint[v];
+    force[v] = d->qfrc_passive[v] + (substepped ? 0.0 : m->dof_damping[v] * d->qvel[v]) -
+               d->qfrc_bias[v] + d->qfrc_applied[v] + constraint[v];
   }
   for (int b = 1; b < m->nbody; ++b) {  // xfrc_applied at each body's centre of mass
     const mjtNum* wrench = d->xfrc_applied + 6 * b;
@@ -558,7 +622,7 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, const mjtNum* constr
     for (int o = m->actuator_outadr[j]; o < m->actuator_outadr[j] + m->actuator_outnum[j]; ++o) {
       const bool member = std::find(outputs, outputs + n, o) != outputs + n;
       const double actuator = (member ? 0.0 : OtherActuatorForce(m, d, j, o)) +
-                              m->actuator_damping[j] * d->actuator_velocity[o];
+                              (substepped ? 0.0 : m->actuator_damping[j] * d->actuator_velocity[o]);
       if (actuator == 0) continue;
       const auto [begin, end] = row_of(o);
       for (int k = begin; k < end; ++k) {
@@ -567,6 +631,10 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, const mjtNum* constr
     }
   }
   for (int v : gravcomp_dofs_) force[v] += d->qfrc_gravcomp[v];  // counted with the actuators
+  if (substepped) {
+    SubsteppedForces(m, d, n, outputs, rows, inverse_inertia, force);
+    return;
+  }
   for (int i = 0; i < n; ++i) external[i] = mju_dot(rows + i * nv, force, nv);  // (M⁻¹·rᵢᵀ)·F
   const double h = m->opt.timestep;
   for (int i = 0; i < n; ++i) d->actuator_force[outputs[i]] = torque[i];  // τ0 unless solved
@@ -582,6 +650,153 @@ void Stepper::ConsistentForces(const mjModel* m, mjData* d, const mjtNum* constr
       for (int i = 0; i < n; ++i) d->actuator_force[outputs[i]] = handed[i];
     } catch (...) {
     }
+  }
+}
+
+void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* outputs,
+                               const mjtNum* rows, const mjtNum* inverse_inertia,
+                               const mjtNum* force) const {
+  const int nv = m->nv;
+  if (n != static_cast<int>(coupled_.size())) return;  // (every member takes part: load checks)
+  const double h = m->opt.timestep;                    // s
+  const double t0 = d->time;
+  const double t1 = d->time + h;    // as MuJoCo's mj_advance will make it, to the bit
+  if (member_stiffness_.empty()) {  // the members' drives exist once every instance has loaded
+    for (const CoupledActuator& c : coupled_) {
+      const Drive& drive = *FromData(d, c.instance).drive_;
+      member_stiffness_.push_back(drive.HoldingStiffness() + drive.DetentStiffness());
+    }
+  }
+  // The damped dofs MuJoCo's step damps implicitly this step (none with damping disabled).
+  const bool damped =
+      !(m->opt.disableflags & mjDSBL_DAMPER) &&
+      !(m->opt.integrator == mjINT_EULER && (m->opt.disableflags & mjDSBL_EULERDAMP));
+  const int s = damped ? static_cast<int>(damped_dofs_.size()) : 0;
+  double* theta = substep_scratch_.data();  // rad, rotor side
+  double* omega = theta + n;                // rad/s
+  double* start_speed = omega + n;          // c0, rad/s
+  double* accel = start_speed + n;          // a_x, rad/s²
+  double* command = accel + n;
+  double* status = command + n;
+  double* chord = status + n;  // rad/s
+  double* handed = chord + n;  // N·m
+  double* p = handed + n;      // R·M⁻¹·D·M⁻¹·Rᵀ
+  double* b = p + n * n;       // B, 1/s
+  double* u = b + n * n;       // U = R·M⁻¹·E
+  double* q = u + n * s;       // Q = Eᵀ·M⁻¹·E
+  double* step_damping = q + s * s;
+  double* damped_force = step_damping + s;
+  double* solved_force = damped_force + s;  // M⁻¹·F
+  double* columns = solved_force + nv;      // E's columns, then M⁻¹·E
+  double* solved_columns = columns + s * nv;
+  double* integrator = solved_columns + s * nv;  // R-1's scratch
+  for (int i = 0; i < n; ++i) {
+    const CoupledActuator& c = coupled_[i];
+    const Stepper& owner = FromData(d, c.instance);
+    const Drive& drive = *owner.drive_;
+    const Actuator& a = owner.actuators_[c.slot];
+    DriveState& state = substep_states_[i];
+    state = drive.Load(owner.Slot(m, d, c.instance, c.slot));
+    command[i] = owner.Command(m, d, a, &state);  // as Advance reads it
+    theta[i] = d->actuator_length[c.output];
+    if (!state.started) state = drive.Rest(t0, theta[i], command[i]);
+    if (state.theta != theta[i]) drive.Relocate(&state, theta[i]);  // MuJoCo's angle rules
+    start_speed[i] = d->actuator_velocity[c.output];
+    // The rotor's own speed: the last sub-stepped end, moved by whatever moved MuJoCo's speed off
+    // the chord it was asked for (this step's constraint forces, a user's write); MuJoCo's own
+    // before any step.
+    const mjtNum* kept = owner.SubstepSlot(m, d, c.instance, c.slot);
+    omega[i] =
+        kept[kSpeedKept] != 0 ? kept[kSpeed] + (start_speed[i] - kept[kChord]) : start_speed[i];
+    accel[i] = mju_dot(rows + i * nv, force, nv);
+    status[i] = static_cast<double>(AdvanceStatus::kOk);
+    // Should the landing fail: the motor's torque at the step's start.
+    const double torque = drive.TorqueAndStiffness(state, theta[i]).first;
+    d->actuator_force[c.output] =
+        torque * drive.config().transmission.Scale(torque, start_speed[i]);
+  }
+  // R-1's B from P = Σ over damped dofs of (M⁻¹·rᵢᵀ)·D·(M⁻¹·rⱼᵀ).
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      double sum = 0;
+      for (int k = 0; k < s; ++k) {
+        const int v = damped_dofs_[k];
+        sum += rows[i * nv + v] * dof_damping_[k] * rows[j * nv + v];
+      }
+      p[i * n + j] = sum;
+    }
+  }
+  if (s > 0)
+    RotorDamping(std::span(inverse_inertia, n * n), std::span(p, n * n), std::span(b, n * n));
+
+  class Members final : public SubsteppedMotors {
+   public:
+    Members(const Stepper& leader, const mjData* d, DriveState* states, const double* commands,
+            double* statuses)
+        : leader_(leader), d_(d), states_(states), commands_(commands), statuses_(statuses) {}
+    std::pair<double, double> TorqueAndStiffness(int i, double theta, double speed) override {
+      const Drive& drive = DriveOf(i);
+      const auto [torque, stiffness] = drive.TorqueAndStiffness(states_[i], theta);
+      // The gear train's efficiency (transmission.h) on what the rotor hands the load.
+      const double scale = drive.config().transmission.Scale(torque, speed);
+      return {torque * scale, stiffness * scale};
+    }
+    void Advance(int i, double t0, double t1, double theta1) override {
+      const AdvanceStatus status = DriveOf(i).Advance(&states_[i], t0, t1, theta1, commands_[i]);
+      if (status != AdvanceStatus::kOk && statuses_[i] == 0)
+        statuses_[i] = static_cast<int>(status);
+    }
+
+   private:
+    const Drive& DriveOf(int i) const { return *FromData(d_, leader_.coupled_[i].instance).drive_; }
+    const Stepper& leader_;
+    const mjData* d_;
+    DriveState* states_;
+    const double* commands_;
+    double* statuses_;
+  } members(*this, d, substep_states_.data(), command, status);
+
+  const int substeps =
+      SubstepCount(FastestRotorMode(std::span(inverse_inertia, n * n), member_stiffness_), h);
+  for (int i = 0; i < n; ++i) chord[i] = theta[i];  // θ0, kept for the chord
+  IntegrateRotors({.inverse_inertia = std::span(inverse_inertia, n * n),
+                   .acceleration = std::span(accel, n),
+                   .damping = s > 0 ? std::span<const double>(b, n * n) : std::span<const double>(),
+                   .reference_speed = std::span(start_speed, n)},
+                  members, t0, t1, substeps, std::span(theta, n), std::span(omega, n),
+                  std::span(integrator, 4 * n));
+  for (int i = 0; i < n; ++i) chord[i] = (theta[i] - chord[i]) / h;  // rad/s
+
+  // R-2 with E's columns solved through M's factor (MuJoCo's, from the step's start).
+  mju_zero(columns, s * nv);
+  for (int k = 0; k < s; ++k) columns[k * nv + damped_dofs_[k]] = 1;
+  if (s > 0) mj_solveM(m, d, solved_columns, columns, s);
+  mj_solveM(m, d, solved_force, force, 1);
+  for (int k = 0; k < s; ++k) {
+    const int v = damped_dofs_[k];
+    for (int i = 0; i < n; ++i) u[i * s + k] = rows[i * nv + v];
+    for (int l = 0; l < s; ++l) q[k * s + l] = solved_columns[k * nv + damped_dofs_[l]];
+    step_damping[k] = h * dof_damping_[k];
+    damped_force[k] = solved_force[v];
+  }
+  const bool landed = LandingTorques({.inverse_inertia = std::span(inverse_inertia, n * n),
+                                      .damped_rows = std::span(u, n * s),
+                                      .damped_block = std::span(q, s * s),
+                                      .step_damping = std::span(step_damping, s),
+                                      .acceleration = std::span(accel, n),
+                                      .damped_force = std::span(damped_force, s),
+                                      .start_speed = std::span(start_speed, n)},
+                                     std::span(chord, n), h, std::span(handed, n));
+  for (int i = 0; i < n; ++i) {
+    const CoupledActuator& c = coupled_[i];
+    if (landed) d->actuator_force[outputs[i]] = handed[i];
+    const Stepper& owner = FromData(d, c.instance);
+    mjtNum* slot = owner.SubstepSlot(m, d, c.instance, c.slot);
+    slot[kStamp] = t1;
+    slot[kNextSpeed] = omega[i];
+    slot[kNextChord] = chord[i];
+    slot[kStatus] = status[i];
+    owner.drive_->Store(substep_states_[i], slot + kSubstepExtras);
   }
 }
 
@@ -634,7 +849,23 @@ void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
     // (A bad ctrl is counted by MuJoCo itself, mjWARN_BADCTRL, for plugin actuators too.)
     const double command = Command(m, d, a, &state);
     AdvanceStatus status = AdvanceStatus::kBadTime;
-    if (state.started || std::isfinite(t0)) {
+    mjtNum* substep =
+        coupling_ == Coupling::kSubstepped ? SubstepSlot(m, d, instance, slot) : nullptr;
+    if (substep != nullptr && substep[kStamp] == t1 && Drive::Started(substep + kSubstepExtras)) {
+      // The state this step's compute sub-stepped to (SubsteppedForces), and the rotor's speed.
+      state = drive_->Load(substep + kSubstepExtras);
+      status = static_cast<AdvanceStatus>(static_cast<int>(substep[kStatus]));
+      substep[kSpeedKept] = 1;
+      substep[kSpeed] = substep[kNextSpeed];
+      substep[kChord] = substep[kNextChord];
+      substep[kStamp] = -1;  // taken
+      // Where MuJoCo's step did not land on the sub-stepped angle (this step's constraint forces
+      // differ from the last's, which R-1 assumed), the rotor is where MuJoCo put it.
+      const double theta1 = RotorAngleAtEnd(m, d, a);
+      if (theta1 != state.theta) drive_->Relocate(&state, theta1);
+      drive_->Store(state, Slot(m, d, instance, slot));
+    } else if (state.started || std::isfinite(t0)) {
+      if (substep != nullptr) substep[kSpeedKept] = 0;  // (compute did not run this step)
       // actuator_length still holds the step's start value here (Euler, implicitfast).
       if (!state.started) state = drive_->Rest(t0, d->actuator_length[a.outadr], command);
       const double theta1 = RotorAngleAtEnd(m, d, a);  // rad, rotor side, at t1

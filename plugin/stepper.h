@@ -96,6 +96,31 @@ class Stepper {
   /// only, so that the model's coupled system is solved once per step. `constraint`: the
   /// previous step's qfrc_constraint as kept in the plugin state (ConstraintForces).
   void ConsistentForces(const mjModel* m, mjData* d, const mjtNum* constraint) const;
+  /// The sub-stepped rotors (core/substep.h) of every stepper of coupled_ when they are
+  /// `substepped`: given R, M⁻¹·Rᵀ (`rows`, n×nv), G and F (every force but theirs, damping
+  /// included) as ConsistentForces gathers them, integrates the rotors and their drives over the
+  /// step into each slot's tentative state (SubstepSlot), and writes the torques that land
+  /// MuJoCo's step on the sub-stepped angles.
+  void SubsteppedForces(const mjModel* m, mjData* d, int n, const int* outputs, const mjtNum* rows,
+                        const mjtNum* inverse_inertia, const mjtNum* force) const;
+  /// A substepped slot's own region, after the constraint forces: kSubstepExtras values (the
+  /// SubstepValue indices), then a tentative drive state (state_size_ values) made by compute
+  /// and taken by advance.
+  mjtNum* SubstepSlot(const mjModel* m, const mjData* d, int instance, int slot) const {
+    return d->plugin_state + m->plugin_stateadr[instance] +
+           static_cast<long>(actuators_.size()) * state_size_ + 1 + m->nv +
+           static_cast<long>(slot) * (kSubstepExtras + state_size_);
+  }
+  enum SubstepValue : int {
+    kSpeedKept = 0,     // 1 once kSpeed and kChord hold a step's end (0: take MuJoCo's speed)
+    kSpeed = 1,         // rad/s, the sub-stepped rotor's speed at the last step's end
+    kChord = 2,         // rad/s, the speed MuJoCo was asked to land that step at, (θ1 − θ0)/h
+    kStamp = 3,         // s, the end time of the step the tentative state was made for
+    kNextSpeed = 4,     // rad/s, the tentative kSpeed
+    kNextChord = 5,     // rad/s, the tentative kChord
+    kStatus = 6,        // the AdvanceStatus of the tentative state's sub-steps (worst)
+    kSubstepExtras = 7  // (the count)
+  };
   /// The instance's copy of qfrc_constraint at the end of the last step (after its actuators'
   /// slots: a flag, 1 once a step has written it, then nv mjtNums), written by the coupling's
   /// leader in Advance: state, so that restoring a state restores it.
@@ -147,6 +172,15 @@ class Stepper {
   // The dofs whose gravity compensation the actuators apply (jnt_actgravcomp), found at load:
   // C-3 counts it among the other forces.
   std::vector<int> gravcomp_dofs_;
+  // The substepped leader's, found at load: the dofs MuJoCo's Euler step damps implicitly (dof
+  // damping and joint actuators' damping), their damping D (N·m·s/rad or N·s/m), and each coupled
+  // stepper's largest stiffness (T' plus the detent's worst case, N·m/rad) for the sub-step count.
+  std::vector<int> damped_dofs_;
+  std::vector<double> dof_damping_;
+  mutable std::vector<double> member_stiffness_;  // (filled at the first step)
+  // SubsteppedForces' scratch (as scratch_): the members' drive states and the numbers around them.
+  mutable std::vector<DriveState> substep_states_;
+  mutable std::vector<double> substep_scratch_;
   // The causes (bit 1 << Cause) already reported by this instance on this mjData: a diagnostic,
   // not simulation state.
   mutable std::atomic<unsigned> warned_{0};

@@ -13,7 +13,9 @@
 namespace mjstepper {
 
 double MaxOmegaTimesStep(Coupling coupling) {
-  return coupling == Coupling::kConsistent ? 0.2 : 0.15;  // docs/coupling.md, the ripple table
+  // docs/coupling.md, the ripple table; the sub-stepped rotors' own modes are not MuJoCo's to
+  // resolve (core/substep.h): 0.2 for the model's other modes, as consistent.
+  return coupling == Coupling::kExplicit ? 0.15 : 0.2;
 }
 
 namespace {

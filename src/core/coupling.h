@@ -54,6 +54,7 @@ namespace mjstepper {
 enum class Coupling {
   kExplicit,    ///< τ(θ0): the torque at the step's start
   kConsistent,  ///< C-2: the exact map of the linearised rotor over the step
+  kSubstepped,  ///< R-1 (core/substep.h): the rotors sub-stepped against the frozen load
 };
 
 /// The largest ω·h of a stepper mode that keeps the simulation within 1 % of a fine reference with

@@ -947,6 +947,20 @@ std::pair<double, double> Drive::StoredTorqueAndStiffness(const double* values,
   return {torque_em + torque_detent, StiffnessOf(s)};
 }
 
+std::pair<double, double> Drive::TorqueAndStiffness(const DriveCoreState& s, double theta) const {
+  const StoredMotor m{.rotor = RotorPhasor(s.started != 0, s.theta, s.rotor_phasor(), theta),
+                      .current = s.current(),
+                      .torque_constant = thermal_ ? TorqueConstantAt(s.winding_temperature)
+                                                  : constants_.torque_constant};
+  const auto [torque_em, torque_detent] = Torques(m.current, m.rotor, m.torque_constant);
+  return {torque_em + torque_detent, StiffnessOf(m)};
+}
+
+void Drive::Relocate(DriveCoreState* s, double theta) const {
+  s->theta = theta;
+  s->set_rotor_phasor(UnitPhasor(constants_.rotor_teeth * theta));
+}
+
 double Drive::StiffnessOf(const StoredMotor& s) const {
   // S-4: ∂/∂θ Km·Im(z̄·i) = −Nr·Km·Re(z̄·i), z = e^{jNrθ}; S-5: ∂/∂θ −Im(Σh wh·z^h) =
   // −Nr·Re(Σh h·wh·z^h).

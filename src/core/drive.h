@@ -329,6 +329,11 @@ class Drive {
   double StoredStiffness(const double* values, double theta) const;
   /// StoredTorque and StoredStiffness from one read of the stored state: {τ (N·m), k (N·m/rad)}.
   std::pair<double, double> StoredTorqueAndStiffness(const double* values, double theta) const;
+  /// The same from a state: the torque τm + τdet (N·m) and −∂τ/∂θ (N·m/rad) at rotor angle θ.
+  std::pair<double, double> TorqueAndStiffness(const DriveCoreState& s, double theta) const;
+  /// Moves the state's rotor to θ (rad) at once, its phasor with it (no energy is counted): where
+  /// the multibody step left the rotor elsewhere than the drive's own path (core/substep.h).
+  void Relocate(DriveCoreState* s, double theta) const;
 
   DriveSignals Signals(const DriveState& state, double theta) const;
 

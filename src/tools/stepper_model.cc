@@ -263,7 +263,8 @@ std::vector<plugin::ModalStepper> ModalSteppers(const StepperModel& sm) {
                    .name = s.name,
                    .stiffness = drive.HoldingStiffness(),
                    .detent_stiffness = drive.DetentStiffness(),
-                   .max_omega_h = MaxOmegaTimesStep(s.coupling)});
+                   .max_omega_h = MaxOmegaTimesStep(s.coupling),
+                   .substepped = s.coupling == Coupling::kSubstepped});
   }
   return out;
 }

@@ -2,9 +2,12 @@
 // consistent coupling on a model with a constraint. The coupling reads the previous step's
 // constraint forces (plugin/stepper.cc, ConsistentForces), which no mjSTATE holds when read from
 // d->qfrc_constraint (|Δq| 8e-15 rad here after 2 000 steps, 2.7e-13 on the issue's model); they
-// are now kept in the plugin state, which mjSTATE_INTEGRATION holds.
+// are now kept in the plugin state, which mjSTATE_INTEGRATION holds. The sub-stepped rotor keeps
+// its speed and its tentative drive state there too (plugin/stepper.h, SubstepSlot): replayed at 1
+// ms.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -16,8 +19,8 @@ namespace {
 
 // A rotor driving, through a 2:1 joint equality (the constraint carries torque every step), a
 // pendulum that gravity loads, at 120 r/min; its stepper `actuator` (a <plugin> on joint shaft).
-std::string Model(const std::string& actuator) {
-  return fmt::format(R"(<mujoco><option timestep="5e-5" integrator="implicitfast"/>
+std::string Model(const std::string& actuator, double timestep) {
+  return fmt::format(R"(<mujoco><option timestep="{}" integrator="implicitfast"/>
   <extension><plugin plugin="mjstepper.stepper"/></extension>
   <worldbody>
     <body name="rotor"><joint name="shaft" type="hinge" axis="0 0 1"/>
@@ -28,30 +31,48 @@ std::string Model(const std::string& actuator) {
   </worldbody>
   <equality><joint joint1="swing" joint2="shaft" polycoef="0 0.5 0 0 0"/></equality>
   <actuator>{}</actuator></mujoco>)",
-                     actuator);
+                     timestep, actuator);
 }
 
-// The Tsui PI drive (at its interrupts) and the averaged SpreadCycle (whose phases' modes are
-// state too).
-class Replay : public ::testing::TestWithParam<const char*> {};
+// The Tsui PI drive (at its interrupts), the averaged SpreadCycle (whose phases' modes are state
+// too), and the Tsui drive with the sub-stepped rotor at 1 ms (its speed is state).
+struct Case {
+  const char* name;
+  const char* actuator;
+  double timestep;  // s
+};
+class Replay : public ::testing::TestWithParam<Case> {};
 
 INSTANTIATE_TEST_SUITE_P(
     Drives, Replay,
     ::testing::Values(
-        R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4">)"
-        R"(<config key="motor" value="tsui2009"/><config key="input" value="velocity"/></plugin>)",
-        R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="8.2e-6">)"
-        R"(<config key="motor" value="17hs19_2004s1"/><config key="driver" value="tmc2209"/>)"
-        R"(<config key="fidelity" value="averaged"/><config key="input" value="velocity"/>)"
-        R"(</plugin>)"));
+        Case{"TsuiPi",
+             R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4">)"
+             R"(<config key="motor" value="tsui2009"/><config key="input" value="velocity"/>)"
+             R"(</plugin>)",
+             5e-5},
+        Case{"AveragedSpreadCycle",
+             R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="8.2e-6">)"
+             R"(<config key="motor" value="17hs19_2004s1"/><config key="driver" value="tmc2209"/>)"
+             R"(<config key="fidelity" value="averaged"/><config key="input" value="velocity"/>)"
+             R"(</plugin>)",
+             5e-5},
+        Case{"SubsteppedTsuiAt1ms",
+             R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4">)"
+             R"(<config key="motor" value="tsui2009"/><config key="input" value="velocity"/>)"
+             R"(<config key="coupling" value="substepped"/></plugin>)",
+             1e-3}),
+    [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
 
 TEST_P(Replay, SetStateReplaysBitForBitWithAConstraint) {
   std::string error;
-  const ModelPtr m = LoadModel(Model(GetParam()), &error);
+  const ModelPtr m = LoadModel(Model(GetParam().actuator, GetParam().timestep), &error);
   ASSERT_TRUE(m) << error;
   const mjtState spec = mjSTATE_INTEGRATION;
   const DataPtr d(mj_makeData(m.get()));
-  for (int k = 0; k < 1000; ++k) {
+  // 0.05 s, then 0.1 s replayed.
+  const int steps = static_cast<int>(std::lround(0.05 / GetParam().timestep));
+  for (int k = 0; k < steps; ++k) {
     d->ctrl[0] = 12.57;  // rad/s
     mj_step(m.get(), d.get());
   }
@@ -61,7 +82,7 @@ TEST_P(Replay, SetStateReplaysBitForBitWithAConstraint) {
   // The original run goes on; a fresh mjData (its qfrc_constraint zero) takes the saved state.
   const DataPtr replay(mj_makeData(m.get()));
   mj_setState(m.get(), replay.get(), state.data(), spec);
-  for (int k = 0; k < 2000; ++k) {
+  for (int k = 0; k < 2 * steps; ++k) {
     for (mjData* x : {d.get(), replay.get()}) {
       x->ctrl[0] = 12.57;
       mj_step(m.get(), x);
