@@ -7,7 +7,8 @@
 //   valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Round*'
 //       build/bench_step 20000 stepper    (or stepper1mhz, dcmotor, dcmotor_ripple):
 //   Ir / (8·20000) per step. The 6-DOF arm: bench_step 1000 arm6 [TIMESTEP] (or arm6_ideal,
-//   arm6_servo, arm6_substepped; parol6, parol6_substepped); bench/arm_cost.sh runs them.
+//   arm6_servo, arm6_substepped; parol6, parol6_substepped, parol6_substepped_averaged);
+//   bench/arm_cost.sh runs them.
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
 
@@ -138,17 +139,18 @@ int main(int argc, char** argv) {
   // ideal current sources) or "arm6_servo" (the same arm on MuJoCo's position servos), holding the
   // standby pose from qpos0 against gravity, the plugin alone (no probe sensors, unlike `mjstepper
   // run`); an optional timestep (s) replaces their 1 ms.
-  // "parol6" (models/parol6.xml, six TMC5160s in StealthChop) likewise; "arm6_substepped" and
-  // "parol6_substepped" with the sub-stepped rotor (coupling = substepped, SPEC §11).
-  if (only == "arm6" || only == "arm6_servo" || only == "arm6_ideal" || only == "parol6" ||
-      only == "arm6_substepped" || only == "parol6_substepped") {
-    const std::string file = only.starts_with("parol6") ? "parol6"
-                             : only == "arm6_servo"     ? "arm6_servo"
-                                                        : "arm6";
-    const std::string configs =
-        only == "arm6_ideal"            ? R"(<config key="drive" value="ideal_current"/>)"
-        : only.ends_with("_substepped") ? R"(<config key="coupling" value="substepped"/>)"
-                                        : "";
+  // "parol6" (models/parol6.xml, six TMC5160s in StealthChop) likewise; "_substepped" adds the
+  // sub-stepped rotor (coupling = substepped), "_averaged" the averaged drives (fidelity =
+  // averaged), SPEC §11: e.g. "parol6_substepped_averaged".
+  const bool substepped = only.find("_substepped") != std::string::npos;
+  const bool averaged_drives = only.ends_with("_averaged");
+  const std::string base = only.substr(0, only.find('_', only.starts_with("arm6_servo") ? 6 : 0));
+  if (base == "arm6" || base == "arm6_servo" || base == "parol6") {
+    const std::string file = base;
+    std::string configs =
+        only == "arm6_ideal" ? R"(<config key="drive" value="ideal_current"/>)" : "";
+    if (substepped) configs += R"(<config key="coupling" value="substepped"/>)";
+    if (averaged_drives) configs += R"(<config key="fidelity" value="averaged"/>)";
     const Stepping s = Load(dir + file + ".xml", 0.0, configs, argc > 3 ? argv[3] : "");
     double best = 1e300;
     for (int round = 0; round < 8; ++round) best = std::min(best, Round(s, steps));

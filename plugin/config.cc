@@ -196,7 +196,10 @@ constexpr AttributeSpec kAttrFidelity{
     "every bridge event, the reference. `averaged`: a chopper's cycle average "
     "(`src/core/averaged_bridge.h`): each phase holds its target by the deadbeat voltage within "
     "the bus and slews to a new one at the bus's rate, with STEP/DIR edges exact; its cost does "
-    "not grow with the chopper frequency or the clock. So far for `chopper` and `spreadcycle`."};
+    "not grow with the chopper frequency or the clock. `stealthchop`: the chip's counters "
+    "(TSTEP, the autoscale regulator) advanced by the time between events, one voltage per span "
+    "instead of one per interrupt; at standstill a span lasts to the regulator's next step. So "
+    "far for `chopper`, `spreadcycle` and `stealthchop`."};
 
 const std::vector<const AttributeSpec*>& DriveAttributes() {
   static const std::vector<const AttributeSpec*> list = {&kAttrMotor,
@@ -386,11 +389,11 @@ DriveConfig Parse(const AttributeSource& a) {
                                  .bus_voltage = c.bus_voltage};
   c.controller = MakeController(drive, a, c.motor, constants);
   if (a.Choice(kAttrFidelity, "switching", {"switching", "averaged"}) == "averaged") {
-    if (!IsSwitching(c.controller)) {
+    if (!HasAveragedForm(c.controller)) {
       ThrowBad(kAttrFidelity, "averaged",
                fmt::format("has no averaged form for drive {} yet ({} have one); use fidelity = "
                            "switching",
-                           drive, fmt::join(SwitchingControllerNames(), " and ")));
+                           drive, fmt::join(AveragedControllerNames(), ", ")));
     }
     c.fidelity = Fidelity::kAveraged;
   }

@@ -428,9 +428,9 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
       const long s = static_cast<long>(stepper->damped_dofs_.size());
       stepper->substep_states_.resize(na);
       // θ, ω, c0, a_x, commands, statuses, chord, τ; P and B; U, Q, h·D, Eᵀ·M⁻¹·F; M⁻¹·F; the
-      // damped dofs' unit columns, then M⁻¹ of them; R-1's 4·n.
+      // damped dofs' unit columns, then M⁻¹ of them; R-1's 4·n + n².
       stepper->substep_scratch_.resize(8 * na + 2 * na * na + na * s + s * s + 2 * s + m->nv +
-                                       2 * s * m->nv + 4 * na);
+                                       2 * s * m->nv + 4 * na + na * na);
     }
   }
   for (int j = 0; j < m->njnt; ++j) {
@@ -731,9 +731,14 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
 
   class Members final : public SubsteppedMotors {
    public:
-    Members(const Stepper& leader, const mjData* d, DriveState* states, const double* commands,
-            double* statuses)
-        : leader_(leader), d_(d), states_(states), commands_(commands), statuses_(statuses) {}
+    Members(const Stepper& leader, const mjData* d, double step_end, DriveState* states,
+            const double* commands, double* statuses)
+        : leader_(leader),
+          d_(d),
+          step_end_(step_end),
+          states_(states),
+          commands_(commands),
+          statuses_(statuses) {}
     std::pair<double, double> TorqueAndStiffness(int i, double theta, double speed) override {
       const Drive& drive = DriveOf(i);
       const auto [torque, stiffness] = drive.TorqueAndStiffness(states_[i], theta);
@@ -742,7 +747,9 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
       return {torque * scale, stiffness * scale};
     }
     void Advance(int i, double t0, double t1, double theta1) override {
-      const AdvanceStatus status = DriveOf(i).Advance(&states_[i], t0, t1, theta1, commands_[i]);
+      // The command holds to the MuJoCo step's end (ctrl is the step's).
+      const AdvanceStatus status =
+          DriveOf(i).Advance(&states_[i], t0, t1, theta1, commands_[i], step_end_);
       if (status != AdvanceStatus::kOk && statuses_[i] == 0)
         statuses_[i] = static_cast<int>(status);
     }
@@ -751,10 +758,11 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
     const Drive& DriveOf(int i) const { return *FromData(d_, leader_.coupled_[i].instance).drive_; }
     const Stepper& leader_;
     const mjData* d_;
+    double step_end_;  // s
     DriveState* states_;
     const double* commands_;
     double* statuses_;
-  } members(*this, d, substep_states_.data(), command, status);
+  } members(*this, d, t1, substep_states_.data(), command, status);
 
   const int substeps =
       SubstepCount(FastestRotorMode(std::span(inverse_inertia, n * n), member_stiffness_), h);
@@ -764,7 +772,7 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
                    .damping = s > 0 ? std::span<const double>(b, n * n) : std::span<const double>(),
                    .reference_speed = std::span(start_speed, n)},
                   members, t0, t1, substeps, std::span(theta, n), std::span(omega, n),
-                  std::span(integrator, 4 * n));
+                  std::span(integrator, 4 * n + n * n));
   for (int i = 0; i < n; ++i) chord[i] = (theta[i] - chord[i]) / h;  // rad/s
 
   // R-2 with E's columns solved through M's factor (MuJoCo's, from the step's start).

@@ -68,9 +68,11 @@ void Validate(const DriveConfig& c) {
   Require(c.compute_delay >= 0 && c.compute_delay < c.isr_period, "compute_delay", c.compute_delay,
           "must be >= 0 and < isr_period (s)");
   Require(c.rk4_step > 0, "rk4_step", c.rk4_step, "must be > 0 (s)");
-  Require(c.fidelity == Fidelity::kSwitching || (switching && c.solver == WindingSolver::kExact),
+  Require(c.fidelity == Fidelity::kSwitching ||
+              (HasAveragedForm(c.controller) && c.solver == WindingSolver::kExact),
           "fidelity (0: switching, 1: averaged)", static_cast<int>(c.fidelity),
-          "averaged needs a chopper drive on the exact winding solver");
+          "averaged needs a drive with an averaged form (a chopper, StealthChop) on the exact "
+          "winding solver");
   Require(c.transmission.efficiency > 0 && c.transmission.efficiency <= 1, "efficiency",
           c.transmission.efficiency, "must be in (0, 1]");
   Require(c.transmission.backdrive_efficiency > 0 && c.transmission.backdrive_efficiency <= 1,
@@ -355,8 +357,9 @@ double Drive::CommandFrom(double ctrl, const DriveState* state, double theta) co
   return state->theta_cmd;
 }
 
-AdvanceStatus Drive::Advance(DriveState* s, double t0, double t1, double theta1,
-                             double command) const {
+AdvanceStatus Drive::Advance(DriveState* s, double t0, double t1, double theta1, double command,
+                             double command_end) const {
+  if (!(command_end >= t1)) command_end = t1;  // (NaN too)
   // Each check is written so that NaN fails it.
   if (!(std::isfinite(t0) && std::isfinite(t1) && t1 >= t0)) return AdvanceStatus::kBadTime;
   const bool input_ok = std::abs(theta1) <= kMaxCommand && std::abs(command) <= kMaxCommand;
@@ -373,12 +376,12 @@ AdvanceStatus Drive::Advance(DriveState* s, double t0, double t1, double theta1,
     s->next_tick = 0;
   }
   const bool coarse = CoarseTime(t0) || CoarseTime(t1);
-  const bool bounded = thermal_ ? AdvanceHot(s, t0, t1, theta1, command, coarse)
+  const bool bounded = thermal_ ? AdvanceHot(s, t0, t1, theta1, command, command_end, coarse)
                                 : std::visit(
                                       [&](const auto& unit) {
                                         double copper = 0;  // (unused without heat)
                                         return AdvanceWith(unit, ColdWinding(), s, t0, t1, theta1,
-                                                           command, coarse, &copper);
+                                                           command, command_end, coarse, &copper);
                                       },
                                       config_.controller);
   // A stored double that is not finite (a user's write, a corrupt file) makes the loop's clock
@@ -412,7 +415,7 @@ DecayKernel Drive::MadeKernel(const StepWinding& winding, int i) {
 }
 
 bool Drive::AdvanceHot(DriveState* s, double t0, double t1, double theta1, double command,
-                       bool coarse) const {
+                       double command_end, bool coarse) const {
   // The winding's constants over the step: R(T) and Km(T) at the step's starting winding
   // temperature (thermal.h), held over the step, with the clock's decay kernels for that R made
   // on first use.
@@ -427,7 +430,7 @@ bool Drive::AdvanceHot(DriveState* s, double t0, double t1, double theta1, doubl
   double copper = 0;  // J, the step's copper loss
   const bool bounded = std::visit(
       [&](const auto& unit) {
-        return AdvanceWith(unit, winding, s, t0, t1, theta1, command, coarse, &copper);
+        return AdvanceWith(unit, winding, s, t0, t1, theta1, command, command_end, coarse, &copper);
       },
       config_.controller);
   if (t1 > t0) {
@@ -444,8 +447,8 @@ bool Drive::AdvanceHot(DriveState* s, double t0, double t1, double theta1, doubl
 
 template <class C>
 bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveState* s, double t0,
-                        double t1, double theta1, double command, bool coarse,
-                        double* copper) const {
+                        double t1, double theta1, double command,
+                        [[maybe_unused]] double command_end, bool coarse, double* copper) const {
   bool bounded = true;
   const MotorParams& motor = *winding.motor;
   double step_copper = 0;                                    // J
@@ -497,7 +500,13 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     origin = coarse ? t0 : 0.0;
     const double start = t0 - origin;
     const double t_next = (s->anchor_time - origin) + s->next_tick * period;
-    if (!(t_next >= start - eps && t_next <= start + period + eps)) {
+    // The next tick is within a period of the start, or (an averaged StealthChop's span at
+    // standstill) within the longest span.
+    double reach = 1;  // periods
+    if constexpr (SpanUnit<C>) {
+      if (config_.fidelity == Fidelity::kAveraged) reach = controller.LongestSpan(constants_);
+    }
+    if (!(t_next >= start - eps && t_next <= start + reach * period + eps)) {
       // Time jumped forward or was moved back under the drive: resynchronise its clock.
       AnchorAt(s, coarse ? t0 : t0 - eps, coarse);
       s->pending = 0;
@@ -581,7 +590,7 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
       }
     };
     // Interrupt k at time t: sample the sensors, run the controller, schedule the new voltage.
-    auto tick = [&](long k) {
+    auto tick = [&](long k, [[maybe_unused]] double ticks) {
       // Encoder (S-16) and the backward-difference velocity estimate (S-17), every tick.
       const double theta_meas = EncoderAngle(theta_at(t), config_.encoder_counts);
       velocity_estimator_.Update(velocity_gain_, theta_meas, &s->theta_meas, &s->omega_est);
@@ -594,7 +603,13 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
           .current = current,
           .current_scale = s->current_scale,
           .tick = k};
-      const TickOutput out = controller.Tick(constants_, C::Input::From(sample), stage_, &unit);
+      TickOutput out;
+      if constexpr (SpanUnit<C>) {  // (Tick is Span over one)
+        out = controller.Span(constants_, C::Input::From(sample), static_cast<double>(k), ticks,
+                              stage_, &unit);
+      } else {
+        out = controller.Tick(constants_, C::Input::From(sample), stage_, &unit);
+      }
       // A switching unit's tick gives the phases' new targets, a voltage controller's the voltage.
       const PhaseVector next = SwitchingUnit<C> ? out.current_ref : out.bridge.voltage;
       s->pending_a = next.real();
@@ -625,6 +640,9 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
       }
     };
     const bool averaged = SwitchingUnit<C> && config_.fidelity == Fidelity::kAveraged;
+    // An averaged StealthChop (SpanUnit) runs the interrupts as the switching one while anything
+    // moves; at standstill one interrupt stands for the next SpanTicks of them (below).
+    [[maybe_unused]] const bool spans = SpanUnit<C> && config_.fidelity == Fidelity::kAveraged;
     if (!averaged) {
       predict(0);
       predict(1);
@@ -847,9 +865,27 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
           s->pending = 0;
         }
       } else {  // interrupt k: sample, compute v[k]
-        tick(k_anchor + static_cast<long>(n));
+        // Averaged StealthChop at standstill (SPEC §11): this interrupt stands for the next
+        // SpanTicks of them within the step while the command's count stays (the chip's counters
+        // advanced by them at once, its voltage held over them); the next runs after them.
+        double ticks = 1;
+        if constexpr (SpanUnit<C>) {
+          if (spans) {
+            // Ticks while the command holds (this step's, or its MuJoCo step's when a sub-step).
+            const double within =
+                std::floor((end + (command_end - t1) - eps - t_tick) / period) + 1;
+            ticks =
+                std::max(1.0, std::min(std::floor(controller.SpanTicks(constants_, unit)), within));
+            if (ticks > 1 && controller.table.Count(constants_, command_at(t_tick).theta) !=
+                                 controller.table.Count(
+                                     constants_, command_at(t_tick + (ticks - 1) * period).theta)) {
+              ticks = 1;
+            }
+          }
+        }
+        tick(k_anchor + static_cast<long>(n), ticks);
         apply_at = t_tick + config_.compute_delay;
-        n += 1;
+        n += ticks;
       }
     }
     s->next_tick = n;

@@ -306,7 +306,14 @@ class Drive {
   /// command (rad or rad/s, by input mode; the target angle with a profile) is held over the step.
   /// Bounded for any input (at most kMaxEventsPerAdvance events); what was wrong is returned.
   AdvanceStatus Advance(DriveState* state, double t0, double t1, double theta1,
-                        double command) const;
+                        double command) const {
+    return Advance(state, t0, t1, theta1, command, t1);
+  }
+  /// The same, the command known to hold (its ctrl unchanged) until `command_end` >= t1 (s): a
+  /// sub-step of a longer MuJoCo step (core/substep.h) says so, and an averaged StealthChop at
+  /// standstill then spans interrupts to there.
+  AdvanceStatus Advance(DriveState* state, double t0, double t1, double theta1, double command,
+                        double command_end) const;
 
   /// `ctrl` (rad or rad/s, by input mode) as the drive's command. A ctrl that is NaN, infinite or
   /// beyond kMaxCommand is no command: a started drive (`state`) keeps doing what it does, at its
@@ -399,14 +406,15 @@ class Drive {
   // The step with heat: AdvanceWith on the winding at its starting temperature, then the thermal
   // network over the step with the step's copper loss. False if it hit kMaxEventsPerAdvance.
   bool AdvanceHot(DriveState* s, double t0, double t1, double theta1, double command,
-                  bool coarse) const;
+                  double command_end, bool coarse) const;
 
   // The step itself, on checked input; false if it hit kMaxEventsPerAdvance. `coarse`: work in
   // the step's frame t − t0 (CoarseTime), else in absolute time. Sets *copper to the step's
   // copper loss, J.
   template <class C>
   bool AdvanceWith(const C& controller, const StepWinding& winding, DriveState* s, double t0,
-                   double t1, double theta1, double command, bool coarse, double* copper) const;
+                   double t1, double theta1, double command, double command_end, bool coarse,
+                   double* copper) const;
 
   // Sets the clock's anchor at the first tick of the grid k·T at or after `time`, or at `time`
   // itself when the grid is not representable there (coarse); n = 0.

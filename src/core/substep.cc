@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <stdexcept>
 #include <tuple>
 
@@ -22,10 +23,30 @@ Eigen::Map<const Eigen::VectorXd> VectorOf(std::span<const double> v) {
 bool AllFinite(std::span<const double> v) {
   return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
 }
+
+template <int MaxN>
+bool InvertShiftedWith(std::span<const double> b, double delta, std::size_t n,
+                       std::span<double> out) {
+  using MatrixN = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN>;
+  MatrixN a = delta * MatrixOf(b, n, n);
+  a.diagonal().array() += 1.0;
+  const MatrixN inverse = a.partialPivLu().inverse();
+  if (!inverse.allFinite()) return false;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = 0; j < n; ++j) out[i * n + j] = inverse(i, j);
+  }
+  return true;
+}
+
+// (I + δ·B)⁻¹ into `out` (row-major n×n); false when it is not finite.
+bool InvertShifted(std::span<const double> b, double delta, std::size_t n, std::span<double> out) {
+  return n <= 8 ? InvertShiftedWith<8>(b, delta, n, out)
+                : InvertShiftedWith<Eigen::Dynamic>(b, delta, n, out);
+}
 }  // namespace
 
 int SubstepCount(double omega, double h) {
-  const double n = std::ceil(omega * h / MaxOmegaTimesStep(Coupling::kConsistent));
+  const double n = std::ceil(omega * h / kSubstepOmegaTimesStep);
   if (!(n >= 1)) return 1;  // (NaN too)
   return n > kMaxSubsteps ? kMaxSubsteps : static_cast<int>(n);
 }
@@ -58,13 +79,15 @@ void IntegrateRotors(const RotorLoad& load, SubsteppedMotors& motors, double t0,
   const std::span<const double> g = load.inverse_inertia;
   // The damping taken implicitly, as MuJoCo's Euler step takes it: (I + δ·B)·ω1 = ω0 + δ·(…), with
   // (I + δ·B)⁻¹ made once for the nominal δ (the sub-steps differ by round-off only).
-  Eigen::MatrixXd implicit_damping;
+  // (Row-major n×n in `scratch` past R-1's 4·n: no heap.)
+  const std::span<double> implicit_damping = scratch.subspan(4 * n, load.damping.size());
   if (!load.damping.empty()) {
     const double delta = (t1 - t0) / substeps;
-    Eigen::MatrixXd a = delta * MatrixOf(load.damping, n, n);
-    a.diagonal().array() += 1.0;
-    implicit_damping = a.inverse();
-    if (!implicit_damping.allFinite()) implicit_damping = Eigen::MatrixXd::Identity(n, n);
+    if (!InvertShifted(load.damping, delta, n, implicit_damping)) {
+      for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t j = 0; j < n; ++j) implicit_damping[i * n + j] = i == j ? 1.0 : 0.0;
+      }
+    }
   }
   for (int k = 0; k < substeps; ++k) {
     // The sub-step's ends from the step's: no drift of t over many sub-steps, and the last is t1.
@@ -103,7 +126,7 @@ void IntegrateRotors(const RotorLoad& load, SubsteppedMotors& motors, double t0,
     } else {
       for (std::size_t i = 0; i < n; ++i) {
         double w = 0;
-        for (std::size_t j = 0; j < n; ++j) w += implicit_damping(i, j) * accel[j];
+        for (std::size_t j = 0; j < n; ++j) w += implicit_damping[i * n + j] * accel[j];
         omega[i] = w;
       }
     }
@@ -113,6 +136,60 @@ void IntegrateRotors(const RotorLoad& load, SubsteppedMotors& motors, double t0,
     }
   }
 }
+
+namespace {
+
+// R-2 with matrices of at most MaxN (rotors) and MaxS (damped dofs) rows: no heap allocation when
+// both are fixed (Eigen::Dynamic for any size). Inputs checked and finite.
+template <int MaxN, int MaxS>
+bool SolveLanding(const Landing& landing, std::span<const double> chord, double h,
+                  std::span<double> out) {
+  using MatrixN = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN>;
+  using VectorN = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, MaxN, 1>;
+  using MatrixS = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, MaxS, MaxS>;
+  using VectorS = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, MaxS, 1>;
+  using MatrixNS = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxS>;
+  using MatrixSN = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, MaxS, MaxN>;
+  const std::size_t n = chord.size();
+  const std::size_t s = landing.step_damping.size();
+  MatrixN g = MatrixOf(landing.inverse_inertia, n, n);
+  VectorN a = VectorOf(landing.acceleration);
+  if (s > 0) {  // R-2's Woodbury terms
+    MatrixS k = MatrixOf(landing.damped_block, s, s);
+    for (std::size_t i = 0; i < s; ++i) k(i, i) += 1.0 / landing.step_damping[i];
+    const MatrixS symmetric = 0.5 * (k + k.transpose());
+    const Eigen::LLT<MatrixS> kk(symmetric);
+    if (kk.info() != Eigen::Success) return false;
+    const MatrixNS u = MatrixOf(landing.damped_rows, n, s);
+    const MatrixSN ut = u.transpose();
+    const MatrixSN solved = kk.solve(ut);
+    g.noalias() -= u * solved;
+    const VectorS force = VectorOf(landing.damped_force);
+    const VectorS solved_force = kk.solve(force);
+    a.noalias() -= u * solved_force;
+  }
+  const MatrixN symmetric = 0.5 * (g + g.transpose());
+  const VectorN wanted = (VectorOf(chord) - VectorOf(landing.start_speed)) / h - a;  // rad/s²
+  VectorN tau;
+  const Eigen::LLT<MatrixN> gg(symmetric);
+  double least = std::numeric_limits<double>::infinity(), most = 0;  // L's pivots
+  if (gg.info() == Eigen::Success) {
+    for (std::size_t i = 0; i < n; ++i) {
+      least = std::min(least, gg.matrixLLT()(i, i));
+      most = std::max(most, gg.matrixLLT()(i, i));
+    }
+  }
+  if (gg.info() == Eigen::Success && least > 1e-6 * most) {
+    tau = gg.solve(wanted);
+  } else {  // two rotors on one coordinate: the least-squares torques of least norm
+    tau = Eigen::CompleteOrthogonalDecomposition<MatrixN>(symmetric).solve(wanted);
+  }
+  if (!tau.allFinite()) return false;
+  for (std::size_t i = 0; i < n; ++i) out[i] = tau(i);
+  return true;
+}
+
+}  // namespace
 
 bool LandingTorques(const Landing& landing, std::span<const double> chord, double h,
                     std::span<double> out) {
@@ -129,33 +206,30 @@ bool LandingTorques(const Landing& landing, std::span<const double> chord, doubl
       !AllFinite(landing.damped_force) || !AllFinite(landing.start_speed) || !AllFinite(chord)) {
     return false;
   }
-  Eigen::MatrixXd g = MatrixOf(landing.inverse_inertia, n, n);
-  Eigen::VectorXd a = VectorOf(landing.acceleration);
-  if (s > 0) {  // R-2's Woodbury terms
-    Eigen::MatrixXd k = MatrixOf(landing.damped_block, s, s);
-    for (std::size_t i = 0; i < s; ++i) k(i, i) += 1.0 / landing.step_damping[i];
-    const Eigen::LLT<Eigen::MatrixXd> kk(0.5 * (k + k.transpose()));
-    if (kk.info() != Eigen::Success) return false;
-    const auto u = MatrixOf(landing.damped_rows, n, s);
-    g -= u * kk.solve(u.transpose());
-    a -= u * kk.solve(VectorOf(landing.damped_force));
-  }
-  g = 0.5 * (g + g.transpose());
-  const Eigen::VectorXd wanted =
-      (VectorOf(chord) - VectorOf(landing.start_speed)) / h - a;  // rad/s²
-  Eigen::VectorXd tau;
-  const Eigen::LLT<Eigen::MatrixXd> gg(g);
-  if (gg.info() == Eigen::Success &&
-      gg.matrixL().toDenseMatrix().diagonal().minCoeff() >
-          1e-6 * gg.matrixL().toDenseMatrix().diagonal().maxCoeff()) {
-    tau = gg.solve(wanted);
-  } else {
-    tau = g.completeOrthogonalDecomposition().solve(wanted);
-  }
-  if (!tau.allFinite()) return false;
-  Eigen::Map<Eigen::VectorXd>(out.data(), static_cast<Eigen::Index>(n)) = tau;
-  return true;
+  if (n <= 8 && s <= 16) return SolveLanding<8, 16>(landing, chord, h, out);  // an arm's
+  return SolveLanding<Eigen::Dynamic, Eigen::Dynamic>(landing, chord, h, out);
 }
+
+namespace {
+
+template <int MaxN>
+void SolveRotorDamping(std::span<const double> inverse_inertia, std::span<const double> p,
+                       std::size_t n, std::span<double> out) {
+  using MatrixN = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN>;
+  const MatrixN g = MatrixOf(inverse_inertia, n, n);
+  const MatrixN symmetric = 0.5 * (g + g.transpose());
+  const Eigen::LLT<MatrixN> gg(symmetric);
+  if (gg.info() != Eigen::Success) return;
+  // B = P·G⁻¹ = (G⁻¹·P)ᵀ, both symmetric.
+  const MatrixN pp = MatrixOf(p, n, n);
+  const MatrixN solved = gg.solve(pp);
+  if (!solved.allFinite()) return;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = 0; j < n; ++j) out[i * n + j] = solved(j, i);
+  }
+}
+
+}  // namespace
 
 void RotorDamping(std::span<const double> inverse_inertia, std::span<const double> p,
                   std::span<double> out) {
@@ -164,13 +238,12 @@ void RotorDamping(std::span<const double> inverse_inertia, std::span<const doubl
     throw std::invalid_argument("RotorDamping: G and P n×n");
   }
   std::fill_n(out.begin(), n * n, 0.0);
-  const Eigen::MatrixXd g = MatrixOf(inverse_inertia, n, n);
-  const Eigen::LLT<Eigen::MatrixXd> gg(0.5 * (g + g.transpose()));
-  if (gg.info() != Eigen::Success || !AllFinite(p)) return;
-  // B = P·G⁻¹ = (G⁻¹·P)ᵀ, both symmetric.
-  const Eigen::MatrixXd b = gg.solve(Eigen::MatrixXd(MatrixOf(p, n, n))).transpose();
-  if (!b.allFinite()) return;
-  Eigen::Map<RowMajor>(out.data(), static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n)) = b;
+  if (!AllFinite(p) || !AllFinite(inverse_inertia)) return;
+  if (n <= 8) {
+    SolveRotorDamping<8>(inverse_inertia, p, n, out);
+  } else {
+    SolveRotorDamping<Eigen::Dynamic>(inverse_inertia, p, n, out);
+  }
 }
 
 }  // namespace mjstepper

@@ -56,10 +56,10 @@ double RippleAt(double h, const std::string& coupling) {
 }
 
 // At ωn·h = 0.89 (1 ms; the rotor with its detent's worst case rings at 149 Hz) the sub-stepped
-// rotor's velocity ripple is the 10 µs reference's within 2 % (measured +0.6 %; the sub-steps
-// resolve the ring at ω·δ <= 0.2, the consistent coupling's 1 % bound, and the rest is the torque
-// held over each 200 µs sub-step while the PI loop moves the currents at 50 µs). The consistent
-// coupling at 1 ms is 25 % high: the band tells them apart.
+// rotor's velocity ripple is the 10 µs reference's within 2 % (measured +1.0 %; the sub-steps
+// resolve the ring at ω·δ <= kSubstepOmegaTimesStep = 0.3, and the rest is the torque held over
+// each 200 µs sub-step while the PI loop moves the currents at 50 µs). The consistent coupling
+// at 1 ms is 25 % high: the band tells them apart.
 TEST(Substepped, TheTsuiRippleAtOneMillisecondIsTheFineReferences) {
   const double reference = RippleAt(1e-5, "consistent");
   ASSERT_GT(reference, 0.5);  // rad/s: there is a ripple to match (0.709)

@@ -104,12 +104,30 @@ inline bool IsSwitching(const Controller& c) {
                     c);
 }
 
-/// The names of the controllers whose bridges switch (the ones an averaged fidelity covers), in
-/// registry order.
-inline std::vector<std::string> SwitchingControllerNames() {
+/// A voltage unit whose tick can span any time at once (StealthChop's Span): its averaged form
+/// runs one span per interval between events instead of one tick per interrupt (SPEC §11).
+template <class C>
+concept SpanUnit = requires(const C& u, const DriveConstants& k, const typename C::Input& in,
+                            const PowerStage& ps, typename C::State* st) {
+  u.Span(k, in, 0.0, 1.0, ps, st);
+  u.SpanTicks(k, *st);
+  u.LongestSpan(k);
+};
+
+/// A unit with an averaged form: a chopper (averaged_bridge.h) or a SpanUnit.
+template <class C>
+concept AveragedUnit = SwitchingUnit<C> || SpanUnit<C>;
+
+/// Whether a controller has an averaged form (fidelity = averaged).
+inline bool HasAveragedForm(const Controller& c) {
+  return std::visit([](const auto& unit) { return AveragedUnit<std::decay_t<decltype(unit)>>; }, c);
+}
+
+/// The names of the controllers with an averaged form, in registry order.
+inline std::vector<std::string> AveragedControllerNames() {
   std::vector<std::string> names;
   ForEachControllerType([&]<class C>() {
-    if constexpr (SwitchingUnit<C>) names.push_back(C::kName);
+    if constexpr (AveragedUnit<C>) names.push_back(C::kName);
   });
   return names;
 }

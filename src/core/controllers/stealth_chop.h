@@ -167,10 +167,12 @@ struct StealthChop {
   /// most 2^20 − 1 (the first step after standstill: the counter overflowed). Between measurements
   /// it is at least the clocks since the last step per 1/256 microstep, so that it reaches 2^20 − 1
   /// at standstill as the chip's does. Returns TSTEP.
-  double MeasureTstep(const DriveConstants& k, double count, State* s) const {
+  /// Over `ticks` interrupts' worth of time (1 at a tick; a fraction or several in a span of the
+  /// averaged fidelity, Span).
+  double MeasureTstep(const DriveConstants& k, double count, double ticks, State* s) const {
     const double clocks_per_tick = k.isr_period * clock_frequency;
     const double fine = 256.0 / table.microsteps;  // 1/256 microsteps per microstep
-    s->span_ticks = std::min(s->span_ticks + 1, kTickCap);
+    s->span_ticks = std::min(s->span_ticks + ticks, kTickCap);
     if (count != s->step_count) {
       s->step_count = count;
       s->idle_ticks = 0;
@@ -181,10 +183,24 @@ struct StealthChop {
         s->span_ticks = 0;
       }
     } else {
-      s->idle_ticks = std::min(s->idle_ticks + 1, kTickCap);
+      s->idle_ticks = std::min(s->idle_ticks + ticks, kTickCap);
     }
     const double idle = s->idle_ticks * clocks_per_tick / fine;
     return std::min(std::max(s->tstep, idle), kStandstillClocks - 1);
+  }
+
+  /// The averaged fidelity's span bound (Span), ticks: while moving or before standstill one tick
+  /// (the table, MicroPlyer, TSTEP and the power-down move tick by tick); at standstill the ticks
+  /// to the regulator's next step there (at least one).
+  double SpanTicks(const DriveConstants& k, const State& s) const {
+    const double ticks_per_clock = 1 / (k.isr_period * clock_frequency);
+    if (!pwm_autoscale || s.idle_ticks < kStandstillClocks * ticks_per_clock) return 1.0;
+    return std::max(1.0, kStandstillRegulationClocks * ticks_per_clock - s.since_regulation);
+  }
+
+  /// The most ticks SpanTicks returns (rounded up), plus one.
+  double LongestSpan(const DriveConstants& k) const {
+    return std::ceil(kStandstillRegulationClocks / (k.isr_period * clock_frequency)) + 1;
   }
 
   /// PWM_SCALE_SUM (0..255) from the state and the velocity term 256/TSTEP.
@@ -226,19 +242,29 @@ struct StealthChop {
   /// At each tick: the step count → the table position → the voltage vector along its entries.
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
                   State* s) const {
+    return Span(k, in, static_cast<double>(in.tick), 1.0, stage, s);
+  }
+
+  /// The averaged fidelity (SPEC §11): the chip over `ticks` interrupts' worth of time at once
+  /// (any positive number), as Tick over one: the counters (TSTEP's span and idle time, the
+  /// regulator's time since its last step and its mean |i|, weighted by the span) advance by the
+  /// span, and the voltage it returns is held over it. `label`: the span's start as a tick label
+  /// (fractional between interrupts, as an edge's). At one tick it is Tick.
+  TickOutput Span(const DriveConstants& k, const Input& in, double label, double ticks,
+                  const PowerStage& stage, State* s) const {
     const double count = table.Count(k, in.command.theta);
-    const double position = table.Position(k, count, in.tick, &s->counter);  // microsteps
-    const double velocity_term = 256 / MeasureTstep(k, count, s);
+    const double position = table.Position(k, count, label, &s->counter);  // microsteps
+    const double velocity_term = 256 / MeasureTstep(k, count, ticks, s);
     const double ticks_per_clock = 1 / (k.isr_period * clock_frequency);
     const bool standstill = s->idle_ticks >= kStandstillClocks * ticks_per_clock;
     const double volts_per_unit = VoltsPerUnit(stage.bus_voltage);
     // CoolStep and the standstill current scale the target the regulator aims at
     // (sensors/stallguard.h, step_table.h).
     const double peak =
-        in.current_scale * table.StandstillScale(k, in.tick, s->counter) * table.peak_current;
+        in.current_scale * table.StandstillScale(k, label, s->counter) * table.peak_current;
     if (pwm_autoscale) {
-      Regulate(k, peak, std::abs(in.current), position, standstill, velocity_term, volts_per_unit,
-               ticks_per_clock, s);
+      Regulate(k, peak, std::abs(in.current), ticks, position, standstill, velocity_term,
+               volts_per_unit, ticks_per_clock, s);
     }
     const PhaseVector direction = table.Targets(position) / table.peak_current;
     const PhaseVector target = peak * direction;  // A, the table's current
@@ -297,12 +323,12 @@ struct StealthChop {
   double HalfWave(double position) const { return std::floor(position / (2.0 * table.microsteps)); }
 
   /// The autoscale regulator and the automatic tuning, at one tick (see the file comment).
-  void Regulate(const DriveConstants& k, double peak, double current, double position,
+  void Regulate(const DriveConstants& k, double peak, double current, double ticks, double position,
                 bool standstill, double velocity_term, double volts_per_unit,
                 double ticks_per_clock, State* s) const {
-    s->current_sum += current;
-    s->samples += 1;
-    s->since_regulation = std::min(s->since_regulation + 1, kTickCap);
+    s->current_sum += current * ticks;
+    s->samples += ticks;
+    s->since_regulation = std::min(s->since_regulation + ticks, kTickCap);
     // AT#2 counts the full steps the table moves.
     if (pwm_autograd) s->full_steps += std::abs(position - s->last_position) / table.microsteps;
     s->last_position = position;

@@ -72,7 +72,7 @@ OUT = os.path.join(ROOT, "renders", "coupling")
 
 OMEGA_N = 889.8                       # rad/s, √(T'/J) = √(28.5/0.36e-4)
 OMEGA_H = [0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.25, 1.5]
-COUPLINGS = ["consistent", "explicit"]
+COUPLINGS = ["consistent", "explicit", "substepped"]
 LIMIT = 1.0                           # %
 
 RING_REFERENCE_H = 1e-6               # s
@@ -483,7 +483,7 @@ def plot(results, path):
     floor = 1e-3  # %: where a zero error is drawn on the log scale
     x = np.array(OMEGA_H)
     for ax, (key, title) in zip(axes, ERRORS):
-        for coupling, colour in zip(COUPLINGS, ["tab:blue", "tab:red"]):
+        for coupling, colour in zip(COUPLINGS, ["tab:blue", "tab:red", "tab:green"]):
             e = np.array([results[(wh, coupling)][key] for wh in OMEGA_H])
             ax.plot(x, np.maximum(np.abs(e), floor), "-", color=colour, label=coupling)
             for sign, face in [(e >= 0, colour), (e < 0, "white")]:
@@ -517,7 +517,7 @@ def plot_more(results, references, arm_ratio, path):
     fig, axes = plt.subplots(2, 2, figsize=(12, 9))
     floor, top = 1e-3, 300.0  # %: where a zero error is drawn; where an unstable point is
     x = np.array(OMEGA_H)
-    colours = dict(zip(COUPLINGS, ["tab:blue", "tab:red"]))
+    colours = dict(zip(COUPLINGS, ["tab:blue", "tab:red", "tab:green"]))
     for ax, (key, title) in zip(axes.flat, MORE_ERRORS):
         if key == "arm_counts_differ":
             continue
@@ -531,7 +531,7 @@ def plot_more(results, references, arm_ratio, path):
                 ax.plot(x[sign], np.maximum(np.abs(e[sign]), floor), "o", color=colour,
                         markerfacecolor=face)
             if not fine.all():
-                shift = 0.97 if coupling == COUPLINGS[0] else 1.03  # side by side
+                shift = {"consistent": 0.97, "explicit": 1.03}.get(coupling, 1.0)  # side by side
                 ax.plot(x[~fine] * shift, np.full((~fine).sum(), top), "X", color=colour,
                         markersize=9, label=f"{coupling}: unstable")
         ax.axhline(LIMIT, color="k", linestyle="--", linewidth=1, label="1 %")
@@ -544,7 +544,7 @@ def plot_more(results, references, arm_ratio, path):
         ax.legend(fontsize=8, title="filled: > 0, open: < 0", title_fontsize=7)
     ax = axes.flat[2]
     markers = dict(zip(ARM_JOINTS, ["s", "o", "^"]))
-    for coupling, shift in zip(COUPLINGS, [0.985, 1.015]):
+    for coupling, shift in zip(COUPLINGS, [0.985, 1.015, 1.0]):
         for joint, j in zip(ARM_JOINTS, range(3)):
             d = np.array([(results[(wh, coupling)]["arm_lost"] or (math.nan,) * 3)[j]
                           - references["arm"][coupling][j] for wh in OMEGA_H], dtype=float)
