@@ -665,6 +665,13 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
     for (const CoupledActuator& c : coupled_) {
       const Drive& drive = *FromData(d, c.instance).drive_;
       member_stiffness_.push_back(drive.HoldingStiffness() + drive.DetentStiffness());
+      // The torque's fastest forcing per rad/s of rotor speed: the full-step ripple (4·Nr, the
+      // table's steps and the current loop's) or the detent's highest harmonic h·Nr (S-5).
+      double order = 4;
+      for (const DetentHarmonic& h : drive.config().motor.detent) {
+        order = std::max(order, static_cast<double>(h.order));
+      }
+      member_forcing_.push_back(order * drive.config().motor.rotor_teeth);
     }
   }
   // The damped dofs MuJoCo's step damps implicitly this step (none with damping disabled).
@@ -702,12 +709,7 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
     if (!state.started) state = drive.Rest(t0, theta[i], command[i]);
     if (state.theta != theta[i]) drive.Relocate(&state, theta[i]);  // MuJoCo's angle rules
     start_speed[i] = d->actuator_velocity[c.output];
-    // The rotor's own speed: the last sub-stepped end, moved by whatever moved MuJoCo's speed off
-    // the chord it was asked for (this step's constraint forces, a user's write); MuJoCo's own
-    // before any step.
-    const mjtNum* kept = owner.SubstepSlot(m, d, c.instance, c.slot);
-    omega[i] =
-        kept[kSpeedKept] != 0 ? kept[kSpeed] + (start_speed[i] - kept[kChord]) : start_speed[i];
+    omega[i] = owner.RotorSpeed(m, d, c.instance, c.slot, start_speed[i]);  // the rotor's own
     accel[i] = mju_dot(rows + i * nv, force, nv);
     status[i] = static_cast<double>(AdvanceStatus::kOk);
     // Should the landing fail: the motor's torque at the step's start.
@@ -764,8 +766,10 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
     double* statuses_;
   } members(*this, d, t1, substep_states_.data(), command, status);
 
-  const int substeps =
-      SubstepCount(FastestRotorMode(std::span(inverse_inertia, n * n), member_stiffness_), h);
+  // Sub-steps for the stiffest rotor mode and for the fastest forcing at the rotors' speeds.
+  double fastest = FastestRotorMode(std::span(inverse_inertia, n * n), member_stiffness_);  // rad/s
+  for (int i = 0; i < n; ++i) fastest = std::max(fastest, member_forcing_[i] * std::abs(omega[i]));
+  const int substeps = SubstepCount(fastest, h);
   for (int i = 0; i < n; ++i) chord[i] = theta[i];  // θ0, kept for the chord
   IntegrateRotors({.inverse_inertia = std::span(inverse_inertia, n * n),
                    .acceleration = std::span(accel, n),
@@ -999,10 +1003,28 @@ void Stepper::ComputeProbe(const mjModel* m, mjData* d, int instance) const {
                                  [a](const Actuator& x) { return x.id == a; });
     const int slot = static_cast<int>(it - drive.actuators_.begin());
     const DriveState state = drive.CurrentState(m, d, owner, slot);
-    const DriveSignals signals = drive.drive_->Signals(state, d->actuator_length[it->outadr]);
+    DriveSignals signals = drive.drive_->Signals(state, d->actuator_length[it->outadr]);
+    // MuJoCo's rotor speed from the moment row and qvel: the probe runs at the position stage,
+    // before MuJoCo computes actuator_velocity.
+    double rate = 0;  // rad/s
+    const int row = it->outadr;
+    for (int k = d->moment_rowadr[row]; k < d->moment_rowadr[row] + d->moment_rownnz[row]; ++k) {
+      rate += d->actuator_moment[k] * d->qvel[d->moment_colind[k]];
+    }
+    signals.omega = drive.RotorSpeed(m, d, owner, slot, rate);
     const std::array<double, kNumSignals> values = SignalValues(signals);
     std::copy(values.begin(), values.end(), d->sensordata + m->sensor_adr[s]);
   }
+}
+
+double Stepper::RotorSpeed(const mjModel* m, const mjData* d, int instance, int slot,
+                           double mujoco) const {
+  if (coupling_ != Coupling::kSubstepped) return mujoco;
+  // The sub-stepped rotor's speed at the last step's end, moved by whatever moved MuJoCo's speed
+  // off the chord it was asked for (this step's constraint forces, a user's write); MuJoCo's own
+  // before any step.
+  const mjtNum* kept = SubstepSlot(m, d, instance, slot);
+  return kept[kSpeedKept] != 0 ? kept[kSpeed] + (mujoco - kept[kChord]) : mujoco;
 }
 
 void RegisterStepperPlugin() {

@@ -149,6 +149,9 @@ class Stepper {
   };
   // Warns `message` through mju_warning unless `cause` was reported already; true if it warned.
   bool WarnOnce(unsigned cause, const std::string& message) const;
+  // Slot's rotor speed at the step's start, rad/s (the `omega` signal): MuJoCo's, `mujoco`
+  // (moment row · qvel), or the sub-stepped rotor's own speed.
+  double RotorSpeed(const mjModel* m, const mjData* d, int instance, int slot, double mujoco) const;
   // The state of slot, or the rest state it starts in when it has not started.
   DriveState CurrentState(const mjModel* m, const mjData* d, int instance, int slot) const;
   void ComputeProbe(const mjModel* m, mjData* d, int instance) const;
@@ -178,6 +181,7 @@ class Stepper {
   std::vector<int> damped_dofs_;
   std::vector<double> dof_damping_;
   mutable std::vector<double> member_stiffness_;  // (filled at the first step)
+  mutable std::vector<double> member_forcing_;    // rad per rad of rotor turn: 4·Nr or h·Nr
   // SubsteppedForces' scratch (as scratch_): the members' drive states and the numbers around them.
   mutable std::vector<DriveState> substep_states_;
   mutable std::vector<double> substep_scratch_;

@@ -287,6 +287,7 @@ struct DriveSignals {
   double winding_temperature = 0;  ///< °C (20 without heat)
   double housing_temperature = 0;  ///< °C (20 without heat)
   double resistance = 0;           ///< Ω, R(T_w) per phase (R20 without heat)
+  double omega = 0;  ///< rad/s, rotor speed: not the drive's (0 here); the plugin fills it in
 };
 
 class Drive {

@@ -79,6 +79,10 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
        "phase resistance at the winding temperature, R(T_w) = R·(1 + α·(T_w − 20 °C)); R when "
        "`heat` is off",
        &S::resistance},
+      {"omega", "rad/s",
+       "rotor speed (rotor side): MuJoCo's actuator_velocity; with `coupling=\"substepped\"` the "
+       "sub-stepped rotor's own speed, MuJoCo's joint speed being the mean over the last step",
+       &S::omega},
   }};
   return table;
 }

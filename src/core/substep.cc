@@ -97,11 +97,12 @@ void IntegrateRotors(const RotorLoad& load, SubsteppedMotors& motors, double t0,
     for (std::size_t i = 0; i < n; ++i) {
       std::tie(torque[i], stiffness[i]) =
           motors.TorqueAndStiffness(static_cast<int>(i), theta[i], omega[i]);
-      double a = load.acceleration[i];  // R-1 without G·τ
+      // R-1 without G·τ and without the damping, which the velocity update below takes
+      // implicitly: a_x + B·c0 (as the consistent coupling's a_ext leaves out the damping MuJoCo
+      // integrates implicitly: C-1's σ scales the spring's map, not the damper's).
+      double a = load.acceleration[i];
       if (!load.damping.empty()) {
-        for (std::size_t j = 0; j < n; ++j) {
-          a -= load.damping[i * n + j] * (omega[j] - load.reference_speed[j]);
-        }
+        for (std::size_t j = 0; j < n; ++j) a += load.damping[i * n + j] * load.reference_speed[j];
       }
       accel[i] = a;
     }
@@ -114,11 +115,8 @@ void IntegrateRotors(const RotorLoad& load, SubsteppedMotors& motors, double t0,
     }
     // Symplectic Euler on the handed torques: ω1 = ω0 + δ·(G·τ + a_x − B·(ω1 − c0)).
     for (std::size_t i = 0; i < n; ++i) {
-      double a = load.acceleration[i];
+      double a = accel[i];  // a_x + B·c0
       for (std::size_t j = 0; j < n; ++j) a += g[i * n + j] * handed[j];
-      if (!load.damping.empty()) {
-        for (std::size_t j = 0; j < n; ++j) a += load.damping[i * n + j] * load.reference_speed[j];
-      }
       accel[i] = omega[i] + delta * a;  // (I + δ·B)·ω1
     }
     if (load.damping.empty()) {

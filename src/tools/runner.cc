@@ -167,8 +167,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     std::vector<std::string> header = {"time[s]"};
     for (const StepperActuator& s : sm.steppers) {
       header.push_back(s.name + ":theta[rad]");
-      header.push_back(s.name + ":omega[rad/s]");
-      header.push_back(s.name + ":velocity_error[rad/s]");
+      header.push_back(s.name + ":velocity_error[rad/s]");  // (omega is a signal)
       for (const SignalInfo& info : SignalTable()) {
         header.push_back(fmt::format("{}:{}[{}]", s.name, info.name, info.unit));
       }
@@ -238,8 +237,9 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     row.assign(1, t - settle);
     for (size_t i = 0; i < sm.steppers.size(); ++i) {
       const StepperActuator& s = sm.steppers[i];
-      const double omega = d->actuator_velocity[s.outadr];
       const double* signals = d->sensordata + s.sensor_adr;
+      static const int kOmega = SignalIndex("omega");
+      const double omega = signals[kOmega];  // rad/s: the rotor's own when sub-stepped
       // With the drive's own motion profile, ctrl is a target and the command is the drive's.
       static const int kOmegaCmd = SignalIndex("omega_cmd");
       const double omega_cmd = s.config.profile.kind == ProfileKind::kNone
@@ -277,7 +277,7 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
         trace.housing_temperature.push_back(signals[kHousing]);
       }
       if (csv) {
-        row.insert(row.end(), {d->actuator_length[s.outadr], omega, error});
+        row.insert(row.end(), {d->actuator_length[s.outadr], error});
         row.insert(row.end(), signals, signals + kNumSignals);
       }
     }

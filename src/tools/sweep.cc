@@ -76,7 +76,10 @@ SweepPoint RunOne(const mjModel* m, const StepperActuator& s, double speed, cons
   for (long k = 0; k < steps; ++k) {
     const double t = run.d->time;
     run.Step();
-    if (k >= start) error.push_back(run.d->actuator_velocity[s.outadr] - run.profile.Speed(t));
+    // The rotor's speed at the step's start (the `omega` signal: its own when sub-stepped).
+    static const int kOmega = SignalIndex("omega");
+    if (k >= start)
+      error.push_back(run.d->sensordata[s.sensor_adr + kOmega] - run.profile.Speed(t));
   }
   SweepPoint p;
   p.speed = speed;
