@@ -447,8 +447,8 @@ bool Drive::AdvanceHot(DriveState* s, double t0, double t1, double theta1, doubl
 
 template <class C>
 bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveState* s, double t0,
-                        double t1, double theta1, double command,
-                        [[maybe_unused]] double command_end, bool coarse, double* copper) const {
+                        double t1, double theta1, double command, double command_end, bool coarse,
+                        double* copper) const {
   bool bounded = true;
   const MotorParams& motor = *winding.motor;
   double step_copper = 0;                                    // J
@@ -471,8 +471,12 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
   // STEP/DIR: the count's angle, reached at the step's end along a line (pulses spread evenly).
   const bool steps = config_.input == InputMode::kSteps;
   const double target = steps ? command * step_angle_ : command;  // rad
-  const double omega_cmd =
-      config_.input == InputMode::kVelocity ? command : (h > 0 ? (target - theta_cmd0) / h : 0.0);
+  // STEP/DIR's pulses spread to the command's end: the step's, or its MuJoCo step's for a sub-step
+  // (core/substep.h), so that a sub-step moves θcmd by its share only.
+  const double command_span = steps ? command_end - t0 : h;  // s
+  const double omega_cmd = config_.input == InputMode::kVelocity
+                               ? command
+                               : (command_span > 0 ? (target - theta_cmd0) / command_span : 0.0);
   auto command_at = [&](double t) -> CommandSample {  // t from `origin`
     if (profiled) return config_.profile.Evaluate(plan, origin + t);
     if (config_.input == InputMode::kVelocity || steps) {
@@ -899,7 +903,8 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
   const CommandSample at_end = command_at(t1 - origin);
   s->theta = theta1;
   s->set_rotor_phasor(phasor1);
-  s->theta_cmd = steps ? target : at_end.theta;
+  // (STEP/DIR: the count's angle exactly at the command's end; a sub-step before it, its share.)
+  s->theta_cmd = steps && !(command_end > t1) ? target : at_end.theta;
   s->omega_cmd = profiled ? at_end.omega : omega_cmd;
   if (profiled) Pack(plan, s->unit.data() + layout_.controller);
   if constexpr (C::kCountsSlips) {  // open loop: a slip is a whole electrical cycle lost or won
