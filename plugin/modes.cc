@@ -51,8 +51,9 @@ bool Held(int type) {
 }  // namespace
 
 bool Mode::stepper() const {
-  return std::any_of(participation.begin(), participation.end(),
-                     [](double p) { return p >= kMinParticipation; });
+  const auto counts = [](double p) { return p >= kMinParticipation; };
+  return std::any_of(participation.begin(), participation.end(), counts) ||
+         std::any_of(rotor_motion.begin(), rotor_motion.end(), counts);
 }
 
 std::vector<Mode> ComputeModes(const mjModel* m, const std::vector<ModalStepper>& steppers, int key,
@@ -157,6 +158,20 @@ std::vector<Mode> ComputeModes(const mjModel* m, const std::vector<ModalStepper>
     Mode mode;
     mode.omega = std::sqrt(lambda(k));
     mode.participation.assign(steppers.size(), 0.0);
+    mode.rotor_motion.assign(steppers.size(), 0.0);
+    const double kinetic = v.dot(reduced_mass * v);  // 2·T of the mode's shape
+    std::string moved;  // the sub-stepped rotors it moves, for `springs`
+    for (size_t i = 0; i < springs.size(); ++i) {
+      const int j = springs[i].stepper;
+      if (j < 0 || !steppers[j].substepped || !(kinetic > 0)) continue;
+      const double along = reduced_a[i].dot(v);  // the rotor's share of the shape, rad
+      mode.rotor_motion[j] = m->actuator_armature[steppers[j].actuator] * along * along / kinetic;
+      if (mode.rotor_motion[j] >= kMinParticipation) {
+        moved +=
+            fmt::format("{}sub-stepped rotor '{}' moves {:.0f} % of its inertia",
+                        moved.empty() ? "" : ", ", steppers[j].name, 100 * mode.rotor_motion[j]);
+      }
+    }
     std::vector<size_t> order(springs.size());
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(),
@@ -169,6 +184,7 @@ std::vector<Mode> ComputeModes(const mjModel* m, const std::vector<ModalStepper>
                                     springs[i].name, 100 * fraction);
       }
     }
+    if (!moved.empty()) mode.springs += (mode.springs.empty() ? "" : "; ") + moved;
     if (!order.empty()) mode.dominant = springs[order.front()].name;
     modes.push_back(std::move(mode));
   }

@@ -42,12 +42,17 @@ struct Mode {
   double omega = 0;  ///< rad/s
   /// Per ModalStepper, in their order: the fraction of the mode's potential energy in its T'.
   std::vector<double> participation;
+  /// Per ModalStepper: for a sub-stepped one, the fraction of the mode's kinetic energy in its
+  /// rotor (armature·(moment row·v)²); 0 for the others. A mode that moves a sub-stepped rotor is
+  /// a stepper's mode whatever spring makes it: R-1 holds the other forces over the step.
+  std::vector<double> rotor_motion;
   /// The spring terms holding at least kMinParticipation of its energy, largest first, e.g.
   /// "stepper 'shaft' 61 %, joint 'coupling' 39 %".
   std::string springs;
   /// The term with the most energy: "joint 'coupling'", "tendon 'belt'" or "stepper 'shaft'".
   std::string dominant;
-  bool stepper() const;  ///< some stepper's participation >= kMinParticipation
+  /// Some stepper's participation, or a sub-stepped rotor's motion, >= kMinParticipation.
+  bool stepper() const;
 };
 
 /// The modes in increasing frequency. `key` >= 0: at that keyframe, else at qpos0. With

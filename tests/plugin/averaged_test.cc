@@ -12,8 +12,6 @@
 #include <numbers>
 #include <string>
 
-#include "config.h"
-#include "core/drive.h"
 #include "test_model.h"
 
 namespace mjstepper::testing {
@@ -188,12 +186,7 @@ TEST(Averaged, AStealthChopAtStandstillSpansItsInterruptsToTheCommandsEnd) {
                                                    {"driver", "tmc2209"},
                                                    {"drive", "stealthchop"},
                                                    {"fidelity", fidelity}};
-    const auto parsed = plugin::ParseConfig([&](const char* key) -> const char* {
-      const auto it = kv.find(key);
-      return it == kv.end() ? nullptr : it->second.c_str();
-    });
-    ASSERT_TRUE(std::holds_alternative<DriveConfig>(parsed)) << std::get<std::string>(parsed);
-    const Drive drive(std::get<DriveConfig>(parsed));
+    const Drive drive = DriveFromConfig(kv);
     DriveState state = drive.Rest(0.0, 0.0, 0.0);
     ASSERT_EQ(drive.Advance(&state, 0.0, 1e-4, 0.0, 0.0, 1e-3), AdvanceStatus::kOk);
     EXPECT_NEAR(drive.NextTickTime(state), fidelity[0] == 'a' ? 1e-3 : 1e-4, 1e-12);

@@ -7,13 +7,17 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "config.h"
+#include "core/drive.h"
 #include "core/signals.h"
 
 namespace mjstepper::testing {
@@ -89,6 +93,19 @@ inline std::string TsuiActuator(const std::string& name, const std::string& join
   return fmt::format(
       R"(<plugin name="{}" joint="{}" plugin="mjstepper.stepper" armature="0.36e-4" damping="0.001">{}</plugin>)",
       name, joint, configs);
+}
+
+/// The drive a stepper's <config> makes, from key/value pairs (the plugin's own parser); throws
+/// std::invalid_argument with the parser's message when they do not parse.
+inline Drive DriveFromConfig(const std::map<std::string, std::string>& kv) {
+  const auto parsed = plugin::ParseConfig([&](const char* key) -> const char* {
+    const auto it = kv.find(key);
+    return it == kv.end() ? nullptr : it->second.c_str();
+  });
+  if (const std::string* error = std::get_if<std::string>(&parsed)) {
+    throw std::invalid_argument(*error);
+  }
+  return Drive(std::get<DriveConfig>(parsed));
 }
 
 inline std::string Config(const std::string& key, const std::string& value) {

@@ -50,13 +50,16 @@ std::vector<std::string> Split(const std::string& line) {
   return fields;
 }
 
-// The text of kModel, to edit into a variant.
-std::string ModelText() {
-  std::ifstream in(kModel);
+// A file's whole text.
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
   std::stringstream text;
   text << in.rdbuf();
   return text.str();
 }
+
+// The text of kModel, to edit into a variant.
+std::string ModelText() { return ReadText(kModel); }
 
 // A CSV's header line and its number of data rows.
 std::pair<std::string, int> HeaderAndRows(const std::string& path) {
@@ -671,11 +674,9 @@ TEST(Runner, ArmLosesStepsOnlyWithTooMuchPayload) {
 // sub-stepped rotor loses the steps the 10 µs reference loses, joint by joint (+148, −1112, 0 full
 // steps); the consistent coupling at 2 ms does not (−1128 and +12 on the shoulder and elbow).
 TEST(Runner, SubsteppedArmLosesTheReferencesStepsAtTwoMilliseconds) {
-  std::ifstream in(MJSTEPPER_SOURCE_DIR "/models/arm3.xml");
-  std::stringstream text;
-  text << in.rdbuf();
+  const std::string text = ReadText(MJSTEPPER_SOURCE_DIR "/models/arm3.xml");
   auto lost = [&](const char* timestep, const char* coupling) {
-    std::string xml = text.str();
+    std::string xml = text;
     const std::string own = R"(timestep="1e-4")";
     xml.replace(xml.find(own), own.size(), fmt::format(R"(timestep="{}")", timestep));
     const auto model = TempDir() / fmt::format("arm3_{}.xml", timestep);
@@ -711,11 +712,9 @@ TEST(Runner, SubsteppedArmLosesTheReferencesStepsAtTwoMilliseconds) {
 // command ran ahead and the lag read 0.4956 (−32 %); with the rate right but each sub-step ending
 // on the step's count, 0.6233 (−15 %).
 TEST(Runner, SubsteppedStealthChopLagsAsTheReference) {
-  std::ifstream in(MJSTEPPER_SOURCE_DIR "/models/belt_axis.xml");
-  std::stringstream text;
-  text << in.rdbuf();
+  const std::string text = ReadText(MJSTEPPER_SOURCE_DIR "/models/belt_axis.xml");
   auto lag = [&](const char* timestep, const char* coupling) {
-    std::string xml = text.str();
+    std::string xml = text;
     for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
              {R"(armature="0.36e-4")", R"(armature="68e-7")"},
              {R"(damping="0.001">)", R"(damping="1e-4">)"},
