@@ -668,8 +668,8 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
       // The torque's fastest forcing per rad/s of rotor speed: the full-step ripple (4·Nr, the
       // table's steps and the current loop's) or the detent's highest harmonic h·Nr (S-5).
       double order = 4;
-      for (const DetentHarmonic& h : drive.config().motor.detent) {
-        order = std::max(order, static_cast<double>(h.order));
+      for (const DetentHarmonic& harmonic : drive.config().motor.detent) {
+        order = std::max(order, static_cast<double>(harmonic.order));
       }
       member_forcing_.push_back(order * drive.config().motor.rotor_teeth);
     }
@@ -716,6 +716,19 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
     const double torque = drive.TorqueAndStiffness(state, theta[i]).first;
     d->actuator_force[c.output] =
         torque * drive.config().transmission.Scale(torque, start_speed[i]);
+  }
+  if (m->opt.integrator == mjINT_RK4) {
+    // Set after loading (which refuses it): RK4's four stages would leave the last stage's
+    // tentative states. The motors' torques at the step's start are handed over and each drive
+    // advances on its own in advance, as with the explicit coupling.
+    for (const CoupledActuator& c : coupled_) {
+      FromData(d, c.instance).SubstepSlot(m, d, c.instance, c.slot)[kStamp] = -1;
+    }
+    WarnOnce(kCauseSubsteppedRk4,
+             "mjstepper: coupling = \"substepped\" with the RK4 integrator (set after loading): "
+             "the steppers run with the explicit coupling's torque; use integrator Euler or "
+             "implicitfast");
+    return;
   }
   // R-1's B from P = Σ over damped dofs of (M⁻¹·rᵢᵀ)·D·(M⁻¹·rⱼᵀ).
   for (int i = 0; i < n; ++i) {

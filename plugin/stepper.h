@@ -146,6 +146,7 @@ class Stepper {
     kCauseStatus = 0,          // + AdvanceStatus: bits 0..5
     kCauseBadTimestep = 8,     // timestep not a positive finite number
     kCauseManyInterrupts = 9,  // timestep raised past the load's interrupt bound
+    kCauseSubsteppedRk4 = 10,  // integrator set to RK4 after a sub-stepped load
   };
   // Warns `message` through mju_warning unless `cause` was reported already; true if it warned.
   bool WarnOnce(unsigned cause, const std::string& message) const;

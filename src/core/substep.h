@@ -13,8 +13,10 @@
 // map of the linearised rotors over δ, with the stiffness −∂τ/∂θ and the acceleration at its
 // start; after each, every drive is advanced over the sub-step to its rotor's new angle (the
 // back-EMF follows the sub-stepped path), so the currents that make the next torque are the
-// ones the rotor's own motion left. N is chosen so that the stiffest rotor mode has
-// ω·δ <= kSubstepOmegaTimesStep: the rotor's ring and ripple are resolved whatever h is.
+// ones the rotor's own motion left. N is chosen (by the caller, SubstepCount) so that the stiffest
+// rotor mode and the torque's fastest forcing at the rotors' speeds (the full-step ripple at
+// 4·Nr·|ω|, or a higher detent harmonic) have ω·δ <= kSubstepOmegaTimesStep: the rotor's ring
+// and ripple are resolved whatever h is.
 //
 // The step's end angles θ1 are handed to the multibody integrator as positions (the plugin picks
 // the torque that makes MuJoCo's step land there, plugin/stepper.cc); the end speeds ω1 are kept
@@ -57,7 +59,7 @@ inline constexpr double kSubstepOmegaTimesStep = 0.3;
 /// of h with ωn·h > 300: a rotor whose spring rings about 50 times per step).
 inline constexpr int kMaxSubsteps = 1000;
 
-/// N for a step of h (s) whose stiffest rotor mode rings at up to `omega` (rad/s): the least N
+/// N for a step of h (s) whose fastest rotor mode or forcing is `omega` (rad/s): the least N
 /// with omega·h/N <= kSubstepOmegaTimesStep, at least 1 and at most kMaxSubsteps.
 int SubstepCount(double omega, double h);
 
