@@ -140,7 +140,13 @@ int Info(const std::string& path) {
   // The one timestep rule, as the plugin's load warning and run judge it.
   const TimestepVerdict verdict = CheckTimestep(sm);
   if (std::isinf(verdict.largest_timestep)) {
-    fmt::print("  timestep {:g} s: no mode to resolve (no spring holds the model)\n", h);
+    const bool substepped =
+        std::any_of(sm.steppers.begin(), sm.steppers.end(),
+                    [](const StepperActuator& s) { return s.coupling == Coupling::kSubstepped; });
+    fmt::print("  timestep {:g} s: no mode to resolve ({})\n", h,
+               substepped ? "the steppers' springs are sub-stepped, and no other spring holds "
+                            "the model"
+                          : "no spring holds the model");
   } else if (verdict.failed.empty()) {
     fmt::print(
         "  timestep {:g} s passes every mode with the detents' worst-case stiffness Σ h·Nr·Kdh "

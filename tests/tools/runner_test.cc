@@ -761,6 +761,19 @@ TEST(Runner, SubsteppedStealthChopLagsAsTheReference) {
   EXPECT_NEAR(lag("1e-3", "substepped") / reference, 1.0, 0.05);
 }
 
+// `info` on a model whose only springs are sub-stepped steppers' says why the rule has no mode to
+// judge.
+TEST(Info, SaysWhenTheOnlySpringsAreSubstepped) {
+  std::string xml = ModelText();
+  const std::string input = R"(<config key="input" value="velocity"/>)";
+  xml.insert(xml.find(input), R"(<config key="coupling" value="substepped"/>)");
+  const auto model = TempDir() / "tsui_substepped.xml";
+  std::ofstream(model) << xml;
+  const Result r = RunCli("info " + model.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("no mode to resolve (the steppers' springs are sub-stepped"));
+}
+
 TEST(Map, WritesCsvAndHeatMapAndNamesBadParameters) {
   const std::string coupling = MJSTEPPER_SOURCE_DIR "/models/tsui_coupling.xml";
   const auto prefix = TempDir() / "map";
