@@ -3,6 +3,7 @@ and the `size` table's reader. Each study calls the one C++ experiment through `
 
 import csv
 import os
+import re
 import subprocess
 import sys
 
@@ -30,3 +31,23 @@ def read_table(path):
     """A `size` table (PREFIX.csv): joint → its row."""
     with open(path, newline="") as f:
         return {row["joint"]: row for row in csv.DictReader(f)}
+
+
+def run_conditions(*models):
+    """The sentence a study's page gives on how it simulated (issue 30, item 6): per model file,
+    its timestep and its steppers' coupling and fidelity, the plugin's defaults (`consistent`,
+    `switching`) where the file sets none."""
+    parts = []
+    for path in models:
+        with open(path if os.path.isabs(path) else os.path.join(ROOT, path)) as f:
+            xml = f.read()
+        step = re.search(r'<option[^>]*\btimestep="([^"]+)"', xml)
+        couplings = (sorted(set(re.findall(r'<config key="coupling" value="([^"]+)"', xml)))
+                     or ["consistent"])
+        fidelities = (sorted(set(re.findall(r'<config key="fidelity" value="([^"]+)"', xml)))
+                      or ["switching"])
+        name = os.path.relpath(path, ROOT) if os.path.isabs(path) else path
+        parts.append(f"`{name}` at {float(step.group(1)) if step else 0.002:g} s, coupling "
+                     f"{'/'.join(couplings)}, fidelity {'/'.join(fidelities)}")
+    return ("Simulated with: " + "; ".join(parts) + " (`docs/coupling.md` measures each mode "
+            "against finer steps).")

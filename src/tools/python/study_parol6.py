@@ -19,7 +19,7 @@ import os
 import tempfile
 import time
 
-from study_common import ROOT, cli, move_args, read_table
+from study_common import ROOT, cli, move_args, read_table, run_conditions
 
 MODEL = "models/parol6.xml"
 JOINTS = ["j1", "j2", "j3", "j4", "j5", "j6"]
@@ -102,6 +102,8 @@ def write_report(sized, no_ihold, slips, elapsed):
         "0.69-0.88 of IRUN), belts and EG17 planetary gear trains with their friction and "
         "efficiency (models/README.md, \"Gear trains\"). The file cites every number and says "
         "which are estimates.",
+        "",
+        run_conditions(MODEL),
         "",
         "## 1. The pick-and-place cycle with the rated 0.5 kg",
         "",
