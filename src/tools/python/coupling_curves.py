@@ -71,7 +71,7 @@ MODEL = os.path.join(ROOT, "models", "tsui_rigid.xml")
 OUT = os.path.join(ROOT, "renders", "coupling")
 
 OMEGA_N = 889.8                       # rad/s, √(T'/J) = √(28.5/0.36e-4)
-OMEGA_H = [0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.25, 1.5]
+OMEGA_H = [0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.25, 1.5, 1.78]  # 1.78: h = 2.0 ms
 COUPLINGS = ["consistent", "explicit", "substepped"]
 LIMIT = 1.0                           # %
 
@@ -496,7 +496,7 @@ def plot(results, path):
         ax.axhline(LIMIT, color="k", linestyle="--", linewidth=1, label="1 %")
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ticks = [w for w in OMEGA_H if w != 1.25]  # 1.25 and 1.5 would overlap on the log scale
+        ticks = [w for w in OMEGA_H if w not in (1.25, 1.78)]  # neighbours overlap on log scale
         ax.set_xticks(ticks)
         ax.set_xticklabels([f"{w:g}" for w in ticks], fontsize=8)
         ax.minorticks_off()
@@ -557,7 +557,7 @@ def plot_more(results, references, arm_ratio, path):
     ax.legend(fontsize=7, ncol=2)
     for ax in axes.flat:
         ax.set_xscale("log")
-        ticks = [w for w in OMEGA_H if w != 1.25]
+        ticks = [w for w in OMEGA_H if w not in (1.25, 1.78)]
         ax.set_xticks(ticks)
         ax.set_xticklabels([f"{w:g}" for w in ticks], fontsize=8)
         ax.minorticks_off()
@@ -565,7 +565,7 @@ def plot_more(results, references, arm_ratio, path):
         ax.grid(True, which="major", alpha=0.3)
     top_axis = axes.flat[2].secondary_xaxis("top", functions=(lambda w: w * arm_ratio,
                                                               lambda w: w / arm_ratio))
-    ticks = [w * arm_ratio for w in OMEGA_H if w != 1.25]
+    ticks = [w * arm_ratio for w in OMEGA_H if w not in (1.25, 1.78)]
     top_axis.xaxis.set_major_locator(ticker.FixedLocator(ticks))
     top_axis.xaxis.set_major_formatter(ticker.FixedFormatter([f"{w:.2g}" for w in ticks]))
     top_axis.xaxis.set_minor_locator(ticker.NullLocator())
