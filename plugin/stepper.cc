@@ -108,6 +108,16 @@ int GaugeJoint(const mjModel* m, int trntype, int target) {
   return -1;
 }
 
+// Output `row`'s rate (rad/s or m/s): its moment row (per output, gear included) times qvel, as
+// MuJoCo's actuator_velocity is made.
+double MomentRate(const mjData* d, int row) {
+  double rate = 0;
+  for (int k = d->moment_rowadr[row]; k < d->moment_rowadr[row] + d->moment_rownnz[row]; ++k) {
+    rate += d->actuator_moment[k] * d->qvel[d->moment_colind[k]];
+  }
+  return rate;
+}
+
 }  // namespace
 
 double Stepper::RotorAngleAtEnd(const mjModel* m, const mjData* d, const Actuator& a) {
@@ -125,12 +135,7 @@ double Stepper::RotorAngleAtEnd(const mjModel* m, const mjData* d, const Actuato
   // A spatial tendon: its length is a function of the whole pose, which MuJoCo computes only in
   // the next step's kinematics. To first order in the step, θ1 = θ0 + h·(gear·∂L/∂q)·v1: the start
   // value and moment row (still the step's start ones here) and the integrated velocity v1.
-  double rate = 0;           // rad/s
-  const int row = a.outadr;  // moment rows are per output
-  for (int k = d->moment_rowadr[row]; k < d->moment_rowadr[row] + d->moment_rownnz[row]; ++k) {
-    rate += d->actuator_moment[k] * d->qvel[d->moment_colind[k]];
-  }
-  return d->actuator_length[a.outadr] + m->opt.timestep * rate;
+  return d->actuator_length[a.outadr] + m->opt.timestep * MomentRate(d, a.outadr);
 }
 
 std::string VersionMismatch(int built_for, int running) {
@@ -1019,12 +1024,7 @@ void Stepper::ComputeProbe(const mjModel* m, mjData* d, int instance) const {
     DriveSignals signals = drive.drive_->Signals(state, d->actuator_length[it->outadr]);
     // MuJoCo's rotor speed from the moment row and qvel: the probe runs at the position stage,
     // before MuJoCo computes actuator_velocity.
-    double rate = 0;  // rad/s
-    const int row = it->outadr;
-    for (int k = d->moment_rowadr[row]; k < d->moment_rowadr[row] + d->moment_rownnz[row]; ++k) {
-      rate += d->actuator_moment[k] * d->qvel[d->moment_colind[k]];
-    }
-    signals.omega = drive.RotorSpeed(m, d, owner, slot, rate);
+    signals.omega = drive.RotorSpeed(m, d, owner, slot, MomentRate(d, it->outadr));
     const std::array<double, kNumSignals> values = SignalValues(signals);
     std::copy(values.begin(), values.end(), d->sensordata + m->sensor_adr[s]);
   }

@@ -5,9 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <map>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -22,10 +20,7 @@ using ::testing::HasSubstr;
 // models/tsui_rigid.xml (the Tsui rotor on its dry friction and damping, velocity input) at
 // timestep h with the given coupling.
 std::string TsuiRigid(double h, const std::string& coupling) {
-  std::ifstream file(MJSTEPPER_SOURCE_DIR "/models/tsui_rigid.xml");
-  std::stringstream text;
-  text << file.rdbuf();
-  std::string xml = text.str();
+  std::string xml = ShippedModel("tsui_rigid.xml");
   const std::string option = R"(timestep="5e-5")";
   xml.replace(xml.find(option), option.size(), fmt::format(R"(timestep="{}")", h));
   const std::string input = R"(<config key="input" value="velocity"/>)";
@@ -171,10 +166,7 @@ TEST(Substepped, StepDirPulsesSpreadOverTheMuJoCoStep) {
 // rule counts it as a stepper's mode, which `run` refuses, and names the rotor; it no longer says
 // that no stepper takes part.
 TEST(Substepped, AModeThatMovesASubsteppedRotorIsAStepperMode) {
-  std::ifstream file(MJSTEPPER_SOURCE_DIR "/models/tsui_coupling.xml");
-  std::stringstream text;
-  text << file.rdbuf();
-  std::string xml = text.str();
+  std::string xml = ShippedModel("tsui_coupling.xml");
   const std::string option = R"(timestep="5e-5")";
   xml.replace(xml.find(option), option.size(), R"(timestep="5.6e-4")");
   const std::string input = R"(<config key="input" value="velocity"/>)";

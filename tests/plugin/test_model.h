@@ -124,14 +124,19 @@ inline ModelPtr LoadModel(const std::string& xml, std::string* error = nullptr) 
   return m;
 }
 
+/// A shipped model's text (models/NAME).
+inline std::string ShippedModel(const std::string& name) {
+  std::ifstream file(std::string(MJSTEPPER_SOURCE_DIR "/models/") + name);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
 /// A shipped model (models/NAME) with a signal sensor on actuator `actuator`, and `extra`
 /// <config> elements added to that stepper.
 inline std::string ShippedModelWithSignals(const std::string& name, const std::string& actuator,
                                            const std::string& extra = "") {
-  std::ifstream file(std::string(MJSTEPPER_SOURCE_DIR "/models/") + name);
-  std::stringstream text;
-  text << file.rdbuf();
-  std::string xml = text.str();
+  std::string xml = ShippedModel(name);
   if (!extra.empty()) {
     const size_t config = xml.find("<config key=\"motor\"");
     xml.insert(config, extra);
