@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <optional>
 
 #include "core/presets.h"
@@ -198,8 +199,11 @@ constexpr AttributeSpec kAttrFidelity{
     "the bus and slews to a new one at the bus's rate, with STEP/DIR edges exact; its cost does "
     "not grow with the chopper frequency or the clock. `stealthchop`: the chip's counters "
     "(TSTEP, the autoscale regulator) advanced by the time between events, one voltage per span "
-    "instead of one per interrupt; at standstill a span lasts to the regulator's next step. So "
-    "far for `chopper`, `spreadcycle` and `stealthchop`."};
+    "instead of one per interrupt; at standstill a span lasts to the regulator's next step. "
+    "`voltage_microstep`: K(5)'s rotating voltage itself, continuous, lagging by D + T/2 as its "
+    "interrupts' staircase does, on the exact winding solution over each step. `ideal_current` "
+    "has no clock: it is the same in both. So far for `chopper`, `spreadcycle`, `stealthchop`, "
+    "`voltage_microstep` and `ideal_current`."};
 
 const std::vector<const AttributeSpec*>& DriveAttributes() {
   static const std::vector<const AttributeSpec*> list = {&kAttrMotor,
@@ -412,6 +416,17 @@ DriveConfig Parse(const AttributeSource& a) {
       v != nullptr && v->voltage_amplitude > c.bus_voltage) {
     ThrowBad(kAttrVoltageAmplitude, fmt::format("{}", v->voltage_amplitude),
              fmt::format("must be <= bus_voltage = {} for voltage_microstep (V)", c.bus_voltage));
+  }
+  // The averaged rotating voltage is never cut: on SVPWM (S-14) a phasor at 135° spans √2·Vmax.
+  if (const auto* v = std::get_if<VoltageMicrostep>(&c.controller);
+      v != nullptr && c.fidelity == Fidelity::kAveraged &&
+      c.power_stage == PowerStageKind::kThreeLegSvpwm &&
+      v->voltage_amplitude * std::numbers::sqrt2 > c.bus_voltage) {
+    ThrowBad(kAttrVoltageAmplitude, fmt::format("{}", v->voltage_amplitude),
+             fmt::format("must be <= bus_voltage/√2 = {:.4g} for voltage_microstep averaged on "
+                         "power_stage svpwm (V), whose linear range the averaged voltage keeps; "
+                         "or use fidelity switching",
+                         c.bus_voltage / std::numbers::sqrt2));
   }
   if (c.input == InputMode::kSteps && Microsteps(c.controller) == 0) {
     ThrowBad(kAttrInput, "steps",

@@ -58,6 +58,13 @@ void Validate(const DriveConfig& c) {
   if (const auto* v = std::get_if<VoltageMicrostep>(&c.controller)) {
     Require(v->voltage_amplitude > 0 && v->voltage_amplitude <= c.bus_voltage, "voltage_amplitude",
             v->voltage_amplitude, "must be > 0 and <= bus_voltage (V)");
+    // The averaged form's rotating phasor is never cut: on SVPWM (S-14) that needs Vmax·√2 <=
+    // Vbus, the range max(va, vb, 0) − min(va, vb, 0) of a phasor at 135°.
+    Require(c.fidelity != Fidelity::kAveraged || c.power_stage != PowerStageKind::kThreeLegSvpwm ||
+                v->voltage_amplitude * std::numbers::sqrt2 <= c.bus_voltage,
+            "voltage_amplitude", v->voltage_amplitude,
+            "must be <= bus_voltage/√2 for fidelity = averaged on the svpwm stage (V), where the "
+            "averaged voltage is never cut");
   }
   const bool switching = IsSwitching(c.controller);
   Require(!switching || c.power_stage == PowerStageKind::kTwoHBridges,
@@ -71,8 +78,8 @@ void Validate(const DriveConfig& c) {
   Require(c.fidelity == Fidelity::kSwitching ||
               (HasAveragedForm(c.controller) && c.solver == WindingSolver::kExact),
           "fidelity (0: switching, 1: averaged)", static_cast<int>(c.fidelity),
-          "averaged needs a drive with an averaged form (a chopper, StealthChop) on the exact "
-          "winding solver");
+          "averaged needs a drive with an averaged form (a chopper, StealthChop, voltage "
+          "microstepping, an ideal source) on the exact winding solver");
   Require(c.transmission.efficiency > 0 && c.transmission.efficiency <= 1, "efficiency",
           c.transmission.efficiency, "must be in (0, 1]");
   Require(c.transmission.backdrive_efficiency > 0 && c.transmission.backdrive_efficiency <= 1,
@@ -485,10 +492,48 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     return {.theta = command, .omega = omega_cmd};
   };
 
-  if constexpr (requires { C::kIdealSource; }) {
+  if constexpr (IdealSourceUnit<C>) {
     const PhaseVector i = controller.setpoint.Phase(constants_, command_at(t1).theta);
     s->current_a = s->current_ref_a = i.real();
     s->current_b = s->current_ref_b = i.imag();
+  } else if (RotatingVoltageUnit<C> && config_.fidelity == Fidelity::kAveraged) {
+    if constexpr (RotatingVoltageUnit<C>) {
+      // SPEC §11, an averaged voltage drive: K(5) as its interrupts' staircase carries it to the
+      // winding, the staircase's fundamental Vmax·sinc(Ωc·T/2)·e^{jNr·θcmd(t − D − T/2)} (a hold
+      // of T lags its samples by T/2 and scales them by the sinc; the compute delay D adds to
+      // the lag), on the exact winding solution over the whole step: no interrupts, whatever the
+      // clock. θcmd follows the step's chord (exact for velocity and STEP/DIR input, linear
+      // within a step; a position command's jump is spread over the step), and the lag reaches
+      // back along it. The stage never cuts it (Validate: Vmax within the stage's linear range).
+      const double period = config_.isr_period;                                      // T, s
+      const double lag = config_.compute_delay + 0.5 * period;                       // s
+      const double omega_c = h > 0 ? (command_at(t1).theta - theta_cmd0) / h : 0.0;  // rad/s
+      const double wc = constants_.rotor_teeth * omega_c;                            // Ωc, rad/s
+      const double half = 0.5 * wc * period;                                         // rad
+      const double sinc = std::abs(half) < 1e-4 ? 1 - half * half / 6 : std::sin(half) / half;
+      const PhaseVector v0 = controller.RotatingAmplitude() * sinc *
+                             UnitPhasor(constants_.rotor_teeth * (theta_cmd0 - omega_c * lag));
+      PhaseVector current = s->current();
+      if (h > 0) {
+        IntervalEnergy e;
+        current = AdvanceRotatingVoltage(motor, omega, current, v0, wc, h, s->rotor_phasor(), &e);
+        s->energy_input += e.input;
+        s->energy_copper += e.copper;
+        step_copper += e.copper;
+        s->energy_mechanical += e.mechanical;
+      }
+      const PhaseVector v1 = v0 * UnitPhasor(wc * h);  // V, at t1
+      s->current_a = current.real();
+      s->current_b = current.imag();
+      s->voltage_a = v1.real();
+      s->voltage_b = v1.imag();
+      s->current_ref_a = v1.real() / constants_.resistance;  // K(4), as the tick's
+      s->current_ref_b = v1.imag() / constants_.resistance;
+      s->pending = 0;
+      // The encoder and the speed estimate at the step's end, exact (no interrupts ran).
+      s->theta_meas = EncoderAngle(theta1, config_.encoder_counts);
+      s->omega_est = omega;
+    }
   } else {
     typename C::State unit = Unpack<typename C::State>(s->unit.data());
     const double period = config_.isr_period;  // T

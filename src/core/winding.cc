@@ -59,8 +59,8 @@ SpeedKernel::SpeedKernel(const MotorParams& p, double omega_) : omega(omega_) {
   electrical = p.rotor_teeth * omega;
   decay_rate = p.resistance / p.inductance;
   // 1/(jΩ − a) = (−jΩ − a)/(Ω² + a²); P = −j·Km·ω/(L·(a + jΩ)) = j·Km·ω/L · conj(1/(jΩ − a)).
-  inv_jw_a = PhaseVector(-decay_rate, -electrical) /
-             (electrical * electrical + decay_rate * decay_rate);
+  inv_jw_a =
+      PhaseVector(-decay_rate, -electrical) / (electrical * electrical + decay_rate * decay_rate);
   emf_gain = PhaseVector(0, p.torque_constant * omega / p.inductance) * std::conj(inv_jw_a);
 }
 
@@ -91,8 +91,8 @@ WindingKernel::WindingKernel(const SpeedKernel& speed, const DecayKernel& decay_
       int_2a(decay_kernel.int_2a) {
   const PhaseVector jw(0, speed.electrical);
   int_jw = IntegralOfExp(jw, h, rotation, [&] { return PhaseVector(0, -1 / speed.electrical); });
-  int_jw_a = IntegralOfExp(jw - speed.decay_rate, h, rotation * decay,
-                           [&] { return speed.inv_jw_a; });
+  int_jw_a =
+      IntegralOfExp(jw - speed.decay_rate, h, rotation * decay, [&] { return speed.inv_jw_a; });
 }
 
 WindingKernel::WindingKernel(const MotorParams& p, double omega_, double h_)
@@ -115,6 +115,46 @@ PhaseVector AdvanceInterval(const MotorParams& p, const WindingKernel& k, PhaseV
   const PhaseVector rotor_frame_integral =
       std::conj(phasor0) * (A * std::conj(k.int_jw) + B * h + C * std::conj(k.int_jw_a));
   energy->mechanical = p.torque_constant * k.omega * rotor_frame_integral.imag();
+  return current;
+}
+
+PhaseVector AdvanceRotatingVoltage(const MotorParams& p, double omega, PhaseVector current0,
+                                   PhaseVector voltage0, double command_electrical_speed, double h,
+                                   PhaseVector phasor0, IntervalEnergy* energy) {
+  const double R = p.resistance, L = p.inductance;  // Ω, H
+  const double a = R / L;                           // 1/s
+  const double wc = command_electrical_speed;       // Ωc, rad/s
+  const double w = p.rotor_teeth * omega;           // Ω, rad/s
+  // i(t) = Q·e^{jΩc·t} + B·e^{jΩt} + C·e^{−at}: Q = v0/(R + jΩcL), B = P·e^{jx0}, C = i0 − Q − B.
+  const PhaseVector Q = voltage0 / PhaseVector(R, wc * L);
+  const PhaseVector B =
+      PhaseVector(0, -p.torque_constant * omega) / PhaseVector(R, w * L) * phasor0;
+  const PhaseVector C = current0 - Q - B;
+  const PhaseVector rotation_c = UnitPhasor(wc * h),
+                    rotation = UnitPhasor(w * h);  // e^{jΩc·h}, e^{jΩh}
+  const double decay = std::exp(-a * h);
+  const PhaseVector current = Q * rotation_c + B * rotation + C * decay;
+  if (energy == nullptr) return current;
+  // ∫0^h e^{s·t} dt for the exponents the products below take.
+  auto integral = [h](PhaseVector s, PhaseVector exp_sh) {
+    return IntegralOfExp(s, h, exp_sh, [s] { return 1.0 / s; });
+  };
+  const PhaseVector slip =
+      integral({0, w - wc}, rotation * std::conj(rotation_c));  // ∫e^{j(Ω−Ωc)t}
+  const PhaseVector c_decay = integral({-a, -wc}, std::conj(rotation_c) * decay);  // ∫e^{(−jΩc−a)t}
+  const PhaseVector w_decay = integral({-a, -w}, std::conj(rotation) * decay);  // ∫e^{(−jΩ−a)t}
+  const double int_2a = integral({-2 * a, 0}, decay * decay).real();            // ∫e^{−2at}
+  // v·i = Re(conj(v)·i), conj(v(t)) = conj(v0)·e^{−jΩc·t}.
+  energy->input = (std::conj(voltage0) * (Q * h + B * slip + C * c_decay)).real();
+  const double norm_integral = std::norm(Q) * h + std::norm(B) * h + std::norm(C) * int_2a +
+                               2 * (B * std::conj(Q) * slip).real() +
+                               2 * (Q * std::conj(C) * std::conj(c_decay)).real() +
+                               2 * (B * std::conj(C) * std::conj(w_decay)).real();
+  energy->copper = R * norm_integral;
+  // ∫τm·ω = Km·ω·∫Im(e^{−jx(t)}·i(t)), e^{−jx(t)} = e^{−jx0}·e^{−jΩt}   (S-4)
+  const PhaseVector rotor_frame_integral =
+      std::conj(phasor0) * (Q * std::conj(slip) + B * h + C * w_decay);
+  energy->mechanical = p.torque_constant * omega * rotor_frame_integral.imag();
   return current;
 }
 

@@ -63,21 +63,31 @@ struct WindingKernel {
   /// From its two parts: one sincos and a few products, no division.
   WindingKernel(const SpeedKernel& speed, const DecayKernel& decay);
 
-  double h = -1;               // s; -1: none yet
-  double omega = 0;            // rad/s
-  PhaseVector rotation;        // e^{jΩh}, Ω = Nr·ω
-  double decay = 0;            // e^{−ah}, a = R/L
-  PhaseVector emf_gain;        // P = −j·Km·ω / (R + j·Ω·L)
-  PhaseVector int_jw;          // ∫e^{jΩt}
-  double int_a = 0;            // ∫e^{−at}
-  double int_2a = 0;           // ∫e^{−2at}
-  PhaseVector int_jw_a;        // ∫e^{(jΩ−a)t}; ∫e^{(−jΩ−a)t} is its conjugate
+  double h = -1;         // s; -1: none yet
+  double omega = 0;      // rad/s
+  PhaseVector rotation;  // e^{jΩh}, Ω = Nr·ω
+  double decay = 0;      // e^{−ah}, a = R/L
+  PhaseVector emf_gain;  // P = −j·Km·ω / (R + j·Ω·L)
+  PhaseVector int_jw;    // ∫e^{jΩt}
+  double int_a = 0;      // ∫e^{−at}
+  double int_2a = 0;     // ∫e^{−2at}
+  PhaseVector int_jw_a;  // ∫e^{(jΩ−a)t}; ∫e^{(−jΩ−a)t} is its conjugate
 };
 
 /// One interval of S-3 with v held from current i0, the rotor at electrical phasor e^{jx0} and
 /// turning at the kernel's ω: the current at its end, and (if `energy` is not null) its energies.
 PhaseVector AdvanceInterval(const MotorParams& p, const WindingKernel& k, PhaseVector current0,
                             PhaseVector voltage, PhaseVector phasor0, IntervalEnergy* energy);
+
+/// One interval of length h of S-3 driven by a rotating voltage v(t) = v0·e^{jΩc·t} (a voltage
+/// drive's K(5) without its clock's staircase: the averaged fidelity, SPEC §11) while the rotor
+/// turns at ω from electrical phasor e^{jx0}. Exact for any h:
+///   i(t) = Q·e^{jΩc·t} + P·e^{jx(t)} + (i0 − Q − P·e^{jx0})·e^{−a·t},   Q = v0/(R + j·Ωc·L),
+/// the first term the steady response to the rotating voltage (Ωc = 0: v0/R, AdvanceInterval's).
+/// The current at the end, and (if `energy` is not null) the interval's energies in closed form.
+PhaseVector AdvanceRotatingVoltage(const MotorParams& p, double omega, PhaseVector current0,
+                                   PhaseVector voltage0, double command_electrical_speed, double h,
+                                   PhaseVector phasor0, IntervalEnergy* energy);
 
 /// One interval of S-3 with v held and θ moving linearly from θ0 at speed ω.
 class WindingInterval {

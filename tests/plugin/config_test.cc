@@ -149,6 +149,21 @@ TEST(Config, VoltageAmplitudeAboveBusFailsForVoltageDrive) {
             "voltage_amplitude = \"60\": must be <= bus_voltage = 48 for voltage_microstep (V)");
 }
 
+// The averaged voltage drive's rotating phasor must stay within SVPWM's linear range (S-14).
+TEST(Config, AveragedVoltageBeyondSvpwmsLinearRangeFails) {
+  const auto parsed = ParseMap({{"drive", "voltage_microstep"},
+                                {"fidelity", "averaged"},
+                                {"power_stage", "svpwm"},
+                                {"voltage_amplitude", "40"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(parsed));
+  EXPECT_THAT(std::get<std::string>(parsed),
+              HasSubstr("voltage_amplitude = \"40\": must be <= bus_voltage/√2 = 33.94"));
+  EXPECT_TRUE(std::holds_alternative<DriveConfig>(ParseMap({{"drive", "voltage_microstep"},
+                                                            {"fidelity", "averaged"},
+                                                            {"power_stage", "svpwm"},
+                                                            {"voltage_amplitude", "30"}})));
+}
+
 // An attribute the chosen drive does not read is an error naming the drives that read it, not a
 // silent no-op (a typo of intent, such as servo gains on an open-loop drive).
 TEST(Config, AttributeOfAnotherDriveFails) {

@@ -114,9 +114,25 @@ concept SpanUnit = requires(const C& u, const DriveConstants& k, const typename 
   u.LongestSpan(k);
 };
 
-/// A unit with an averaged form: a chopper (averaged_bridge.h) or a SpanUnit.
+/// A voltage unit whose interrupts sample a rotating phasor of constant amplitude (K(5)): its
+/// averaged form is that phasor, continuous, on the exact winding solution over any interval
+/// (winding.h, AdvanceRotatingVoltage).
 template <class C>
-concept AveragedUnit = SwitchingUnit<C> || SpanUnit<C>;
+concept RotatingVoltageUnit = requires(const C& u) {
+  { u.RotatingAmplitude() } -> std::same_as<double>;
+};
+
+/// An ideal source: no clock, no windings; its averaged form is itself.
+template <class C>
+concept IdealSourceUnit = requires {
+  C::kIdealSource;
+};
+
+/// A unit with an averaged form: a chopper (averaged_bridge.h), a SpanUnit, a rotating voltage or
+/// an ideal source.
+template <class C>
+concept AveragedUnit =
+    SwitchingUnit<C> || SpanUnit<C> || RotatingVoltageUnit<C> || IdealSourceUnit<C>;
 
 /// Whether a controller has an averaged form (fidelity = averaged).
 inline bool HasAveragedForm(const Controller& c) {

@@ -41,6 +41,10 @@ struct VoltageMicrostep {
     return {.bridge = stage.Apply(v), .current_ref = v / k.resistance};                      // K(4)
   }
 
+  /// The amplitude of the rotating voltage K(5) samples (V): the averaged fidelity applies the
+  /// phasor itself, continuous (SPEC §11, drive.cc).
+  double RotatingAmplitude() const { return voltage_amplitude; }
+
   /// Phase currents at rest, aligned with the command: Vmax/R·e^{jNrθcmd}.
   PhaseVector Rest(const DriveConstants& k, const RestInput& in, State*) const {
     return voltage_amplitude / k.resistance * UnitPhasor(k.rotor_teeth * in.theta_cmd);
