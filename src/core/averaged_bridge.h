@@ -81,14 +81,20 @@ inline double DeadbeatVoltage(double target, double free_end, double decay, doub
   return gain > 0 ? (target - free_end) / gain : 0.0;
 }
 
-/// The mean of a chopper's steady cycle less its target, A, for one phase of `unit` with target
-/// `target` >= 0 (A) and voltage drop `drop` = R·i* + e (V, in the target's sign): the unit's own
-/// Switch rules run from its Start on a current that moves at (v − drop)/L between its events,
-/// averaged over whole cycles (from one on-phase start to a later one) after the first few. 0 when
-/// there is no cycle: a zero target, or a bus that cannot reach the target (saturated).
+/// A chopper's steady cycle on one phase (SteadyCycle).
+struct CycleStats {
+  double mean_offset = 0;  ///< A: the cycle's mean current less its target
+  double period = 0;       ///< s: one cycle, from an on-phase's start to the next; 0: no cycle
+};
+
+/// The steady cycle of one phase of `unit` with target `target` >= 0 (A) and voltage drop `drop` =
+/// R·i* + e (V, in the target's sign): the unit's own Switch rules run from its Start on a current
+/// that moves at (v − drop)/L between its events, measured over whole cycles (from one on-phase
+/// start to a later one) after the first few. No cycle ({0, 0}) for a zero target or a bus that
+/// cannot reach the target (saturated).
 template <class C>
-double CycleMeanOffset(const C& unit, double vbus, double inductance, double target, double drop) {
-  if (!(target > 0)) return 0.0;
+CycleStats SteadyCycle(const C& unit, double vbus, double inductance, double target, double drop) {
+  if (!(target > 0)) return {};
   typename C::State state{};
   const PowerStage stage{.kind = PowerStageKind::kTwoHBridges, .bus_voltage = vbus};
   C::SetTarget(0, target, &state);
@@ -127,7 +133,7 @@ double CycleMeanOffset(const C& unit, double vbus, double inductance, double tar
         why = SwitchReason::kLevel;
       }
     }
-    if (!std::isfinite(dt)) return 0.0;  // the current never reaches its comparator: saturated
+    if (!std::isfinite(dt)) return {};  // the current never reaches its comparator: saturated
     if (from >= 0) area += (x + 0.5 * slope * dt) * dt;
     x += slope * dt;
     t += dt;
@@ -139,11 +145,34 @@ double CycleMeanOffset(const C& unit, double vbus, double inductance, double tar
         from = t;
         area = 0;
       } else if (cycles == kWarmCycles + kMeanCycles) {
-        return area / (t - from) - target;
+        return {.mean_offset = area / (t - from) - target, .period = (t - from) / kMeanCycles};
       }
     }
   }
-  return 0.0;  // no steady cycle found within the bound
+  return {};  // no steady cycle found within the bound
+}
+
+/// The mean of a chopper's steady cycle less its target, A (SteadyCycle's mean_offset): 0 when
+/// there is no cycle.
+template <class C>
+double CycleMeanOffset(const C& unit, double vbus, double inductance, double target, double drop) {
+  return SteadyCycle(unit, vbus, inductance, target, drop).mean_offset;
+}
+
+/// The fastest steady cycle (Hz) of one phase of `unit` holding a target from a tenth of `peak`
+/// to `peak` (A) against a drop within ±Vbus/2, or 0 when none cycles: what a switching drive's
+/// torque carries at the chopper's rate, which one torque sample per simulation step folds down
+/// unless the step resolves it (h <= 1/(2·f)).
+template <class C>
+double FastestCycle(const C& unit, double vbus, double inductance, double peak) {
+  double fastest = 0;  // Hz
+  for (int i = 1; i <= 10; ++i) {
+    for (int j = -4; j <= 4; ++j) {
+      const CycleStats c = SteadyCycle(unit, vbus, inductance, peak * i / 10, vbus * j / 8);
+      if (c.period > 0) fastest = std::max(fastest, 1 / c.period);
+    }
+  }
+  return fastest;
 }
 
 /// CycleMeanOffset on a grid, computed once at load and read by bilinear interpolation: targets

@@ -22,6 +22,7 @@
 #include "cli.h"
 #include "config.h"
 #include "core/attributes.h"
+#include "core/averaged_bridge.h"
 #include "core/controllers/driver_chip.h"
 #include "core/signals.h"
 #include "core/thermal.h"
@@ -38,6 +39,21 @@
 namespace mjstepper::tools {
 namespace {
 
+// A switching chopper's fastest steady cycle (Hz; averaged_bridge.h's FastestCycle), 0 for any
+// other drive or the averaged fidelity: what a step above 1/(2·f) folds into the torque it samples.
+double SwitchingCycle(const DriveConfig& c) {
+  if (c.fidelity != Fidelity::kSwitching) return 0;
+  return std::visit(
+      [&](const auto& unit) {
+        if constexpr (SwitchingUnit<std::decay_t<decltype(unit)>>) {
+          return FastestCycle(unit, c.bus_voltage, c.motor.inductance, unit.table.peak_current);
+        } else {
+          return 0.0;
+        }
+      },
+      c.controller);
+}
+
 // The STEP/DIR table, StallGuard and heat of a drive that has them (issue 17).
 void PrintDriverDetails(const DriveConfig& c) {
   std::visit(
@@ -48,6 +64,17 @@ void PrintDriverDetails(const DriveConfig& c) {
               "{}, peak {:.4g} A (√2·run_current after the chip's rounding)\n",
               unit.table.microsteps, StepAngle(c), unit.table.interpolate ? "on" : "off",
               unit.table.peak_current);
+        }
+        if constexpr (SwitchingUnit<std::decay_t<decltype(unit)>>) {
+          if (const double f = SwitchingCycle(c); f > 0) {  // Hz
+            fmt::print(
+                "    chopper: fastest steady cycle {:.1f} kHz (its own rules, a tenth to all of "
+                "the peak, drop within ±Vbus/2); a step above 1/(2·f) = {:.3g} s folds it into "
+                "the torque each step samples, so a stop where both phases chop can ring on "
+                "(docs/coupling.md, \"The CoreXY after a move\"); fidelity = averaged folds "
+                "nothing\n",
+                f / 1e3, RoundDown3(0.5 / f));
+          }
         }
         if constexpr (requires { unit.stallguard.version; }) {
           if (unit.stallguard.version != 0) {
@@ -156,6 +183,17 @@ int Info(const std::string& path) {
   } else {
     fmt::print("  {}: {}\n", verdict.refuse() ? "warning" : "note",
                verdict.Message("the model", "\n    "));
+  }
+  // The switching choppers' cycles, which no mode shows (SPEC §11; issue 30, item 4).
+  double fastest = 0;  // Hz
+  for (const StepperActuator& s : sm.steppers)
+    fastest = std::max(fastest, SwitchingCycle(s.config));
+  if (fastest > 0 && h > 0.5 / fastest) {
+    fmt::print(
+        "  note: timestep {:g} s folds the switching choppers' cycles (up to {:.1f} kHz), which "
+        "a step of at most {:.3g} s resolves: a stop where both phases chop leaves a rotor "
+        "oscillation the fine reference lacks; fidelity = averaged folds nothing\n",
+        h, fastest / 1e3, RoundDown3(0.5 / fastest));
   }
   return 0;  // warnings inform; they do not fail the command
 }

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "chopper_trace.h"
+#include "core/averaged_bridge.h"
 #include "core/drive.h"
 #include "core/presets.h"
 #include "core/units.h"
@@ -141,6 +142,25 @@ TEST(SpreadCycle, HeldRotorCycleMatchesTheClosedForm) {
         expected.peak, expected.trough);
     EXPECT_NEAR(period, expected.period, 1e-3 * expected.period);
     EXPECT_NEAR(hi, expected.peak, 1e-4);
+  }
+}
+
+// The steady cycle the averaged drive and the timestep note read (averaged_bridge.h's SteadyCycle:
+// the unit's own rules on a current that moves at constant slopes (v − R·i* − e)/L) against the
+// held rotor's exact cycle: its period within 1 % (the linear slopes' error, about a·period/2 of
+// the exponential's curvature: 0.5 %). FastestCycle, over a tenth to all of the peak and drops
+// within ±Vbus/2, is at least that cycle's rate: the rate a step must resolve not to fold it.
+TEST(SpreadCycle, SteadyCycleIsTheHeldRotorsCycle) {
+  for (const char* toff : {"3", "6"}) {
+    const SpreadCycle u = Unit({{"run_current", "1.41421356237"}, {"toff", toff}});
+    const Cycle expected = SolveHeldCycle(u, 2.0);
+    const CycleStats linear = SteadyCycle(u, kBus, kL, 2.0, kR * 2.0);
+    const double fastest = FastestCycle(u, kBus, kL, u.table.peak_current);
+    std::printf("TOFF %s: period %.4f µs (exact %.4f µs); fastest cycle %.2f kHz\n", toff,
+                linear.period * 1e6, expected.period * 1e6, fastest / 1e3);
+    EXPECT_NEAR(linear.period / expected.period, 1.0, 0.01) << toff;
+    EXPECT_GE(fastest, 1 / linear.period) << toff;
+    EXPECT_LT(fastest, 2 / linear.period) << toff;  // the same chopper, not a different one
   }
 }
 

@@ -774,6 +774,40 @@ TEST(Info, SaysWhenTheOnlySpringsAreSubstepped) {
   EXPECT_THAT(r.output, HasSubstr("no mode to resolve (the steppers' springs are sub-stepped"));
 }
 
+// `info` on a model with switching choppers at a step that folds their cycle (the CoreXY's two
+// TMC2209s in SpreadCycle, 39.5 kHz, at 5e-5 s) says so, with the step that resolves it
+// (1/(2·f)); the same model with fidelity = averaged, or at that step, does not.
+TEST(Info, SaysWhenTheStepFoldsTheChoppersCycles) {
+  std::ifstream in(MJSTEPPER_SOURCE_DIR "/models/corexy.xml");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string xml = text.str();
+  const std::string note =
+      "folds the switching choppers' cycles (up to 39.5 kHz), which a step "
+      "of at most 1.26e-05 s resolves";
+  Result r = RunCli(std::string("info ") + MJSTEPPER_SOURCE_DIR "/models/corexy.xml");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr(note));
+  EXPECT_THAT(r.output, HasSubstr("chopper: fastest steady cycle 39.5 kHz"));
+  std::string averaged = xml;
+  const std::string drive = R"(<config key="drive" value="spreadcycle"/>)";
+  for (size_t at = averaged.find(drive); at != std::string::npos;
+       at = averaged.find(drive, at + 1)) {
+    averaged.insert(at, R"(<config key="fidelity" value="averaged"/>)");
+    at += 41;
+  }
+  std::string fine = xml;
+  fine.replace(fine.find(R"(timestep="5e-5")"), 16, R"(timestep="1.26e-5")");
+  for (const auto& [name, text] :
+       {std::pair{"corexy_averaged.xml", averaged}, std::pair{"corexy_fine.xml", fine}}) {
+    const auto model = TempDir() / name;
+    std::ofstream(model) << text;
+    r = RunCli("info " + model.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_THAT(r.output, Not(HasSubstr("folds the switching choppers' cycles"))) << name;
+  }
+}
+
 TEST(Map, WritesCsvAndHeatMapAndNamesBadParameters) {
   const std::string coupling = MJSTEPPER_SOURCE_DIR "/models/tsui_coupling.xml";
   const auto prefix = TempDir() / "map";
