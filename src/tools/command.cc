@@ -22,7 +22,6 @@
 #include "cli.h"
 #include "config.h"
 #include "core/attributes.h"
-#include "core/averaged_bridge.h"
 #include "core/controllers/driver_chip.h"
 #include "core/signals.h"
 #include "core/thermal.h"
@@ -38,21 +37,6 @@
 
 namespace mjstepper::tools {
 namespace {
-
-// A switching chopper's fastest steady cycle (Hz; averaged_bridge.h's FastestCycle), 0 for any
-// other drive or the averaged fidelity: what a step above 1/(2·f) folds into the torque it samples.
-double SwitchingCycle(const DriveConfig& c) {
-  if (c.fidelity != Fidelity::kSwitching) return 0;
-  return std::visit(
-      [&](const auto& unit) {
-        if constexpr (SwitchingUnit<std::decay_t<decltype(unit)>>) {
-          return FastestCycle(unit, c.bus_voltage, c.motor.inductance, unit.table.peak_current);
-        } else {
-          return 0.0;
-        }
-      },
-      c.controller);
-}
 
 // The STEP/DIR table, StallGuard and heat of a drive that has them (issue 17).
 void PrintDriverDetails(const DriveConfig& c) {
@@ -185,16 +169,7 @@ int Info(const std::string& path) {
                verdict.Message("the model", "\n    "));
   }
   // The switching choppers' cycles, which no mode shows (SPEC §11; issue 30, item 4).
-  double fastest = 0;  // Hz
-  for (const StepperActuator& s : sm.steppers)
-    fastest = std::max(fastest, SwitchingCycle(s.config));
-  if (fastest > 0 && h > 0.5 / fastest) {
-    fmt::print(
-        "  note: timestep {:g} s folds the switching choppers' cycles (up to {:.1f} kHz), which "
-        "a step of at most {:.3g} s resolves: a stop where both phases chop leaves a rotor "
-        "oscillation the fine reference lacks; fidelity = averaged folds nothing\n",
-        h, fastest / 1e3, RoundDown3(0.5 / fastest));
-  }
+  if (const std::string note = FoldNote(sm); !note.empty()) fmt::print("  note: {}\n", note);
   return 0;  // warnings inform; they do not fail the command
 }
 

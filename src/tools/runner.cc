@@ -104,6 +104,9 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     }
     fmt::print(progress, "warning: {}\n", message);
   }
+  if (const std::string note = FoldNote(sm); !note.empty()) {
+    fmt::print(progress, "note: {}: {}\n", options.model, note);
+  }
   DataPtr data(mj_makeData(m));
   mjData* d = data.get();
   if (key >= 0) {

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "config.h"
+#include "core/averaged_bridge.h"
 #include "core/units.h"
 #include "installation.h"
 #include "stepper.h"
@@ -271,6 +272,32 @@ std::vector<plugin::ModalStepper> ModalSteppers(const StepperModel& sm) {
 
 TimestepVerdict CheckTimestep(const StepperModel& sm, int key) {
   return plugin::JudgeModelTimestep(sm.model.get(), ModalSteppers(sm), key);
+}
+
+double SwitchingCycle(const DriveConfig& c) {
+  if (c.fidelity != Fidelity::kSwitching) return 0;
+  return std::visit(
+      [&](const auto& unit) {
+        if constexpr (SwitchingUnit<std::decay_t<decltype(unit)>>) {
+          return FastestCycle(unit, c.bus_voltage, c.motor.inductance, unit.table.peak_current);
+        } else {
+          return 0.0;
+        }
+      },
+      c.controller);
+}
+
+std::string FoldNote(const StepperModel& sm) {
+  double fastest = 0;  // Hz
+  for (const StepperActuator& s : sm.steppers)
+    fastest = std::max(fastest, SwitchingCycle(s.config));
+  const double h = sm.model->opt.timestep;  // s
+  if (!(fastest > 0 && h > 0.5 / fastest)) return "";
+  return fmt::format(
+      "timestep {:g} s folds the switching choppers' cycles (up to {:.1f} kHz), which a step of "
+      "at most {:.3g} s resolves: a stop where both phases chop leaves a rotor oscillation the "
+      "fine reference lacks; fidelity = averaged folds nothing",
+      h, fastest / 1e3, RoundDown3(0.5 / fastest));
 }
 
 std::vector<int> ExcitationOrders(const DriveConfig& c) {

@@ -114,6 +114,16 @@ std::vector<plugin::ModalStepper> ModalSteppers(const StepperModel& sm);
 /// as the plugin's load warning judges it.
 TimestepVerdict CheckTimestep(const StepperModel& sm, int key = -1);
 
+/// A switching chopper's fastest steady cycle, Hz (averaged_bridge.h's FastestCycle: its own rules
+/// on a linear cycle, a tenth to all of its peak, drops within ±Vbus/2); 0 for any other drive and
+/// for fidelity = averaged.
+double SwitchingCycle(const DriveConfig& c);
+
+/// "" or a note that the model's timestep folds its switching choppers' cycles (h > 1/(2·f), the
+/// fastest of them), with the step that does not: one torque sample per step folds the cycle
+/// down, and a stop where both phases chop rings on (docs/coupling.md; issue 30, item 4).
+std::string FoldNote(const StepperModel& sm);
+
 /// One resonant speed of a stepper: detent (or step) harmonic h of its motor excites mode `mode`
 /// at rotor speed n_h = 60·f/(h·Nr) r/min (SPEC §2-3: h·Nr·n/60 = f).
 struct ResonantSpeed {

@@ -774,9 +774,9 @@ TEST(Info, SaysWhenTheOnlySpringsAreSubstepped) {
   EXPECT_THAT(r.output, HasSubstr("no mode to resolve (the steppers' springs are sub-stepped"));
 }
 
-// `info` on a model with switching choppers at a step that folds their cycle (the CoreXY's two
-// TMC2209s in SpreadCycle, 39.5 kHz, at 5e-5 s) says so, with the step that resolves it
-// (1/(2·f)); the same model with fidelity = averaged, or at that step, does not.
+// `info` and `run` on a model with switching choppers at a step that folds their cycle (the
+// CoreXY's two TMC2209s in SpreadCycle, 39.5 kHz, at 5e-5 s) say so, with the step that resolves
+// it (1/(2·f)); the same model with fidelity = averaged, or at that step, does not.
 TEST(Info, SaysWhenTheStepFoldsTheChoppersCycles) {
   std::ifstream in(MJSTEPPER_SOURCE_DIR "/models/corexy.xml");
   std::stringstream text;
@@ -789,6 +789,11 @@ TEST(Info, SaysWhenTheStepFoldsTheChoppersCycles) {
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr(note));
   EXPECT_THAT(r.output, HasSubstr("chopper: fastest steady cycle 39.5 kHz"));
+  // `run` says it too, and runs.
+  r = RunCli(std::string("run ") + MJSTEPPER_SOURCE_DIR
+             "/models/corexy.xml --duration 0.001 --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr(note));
   std::string averaged = xml;
   const std::string drive = R"(<config key="drive" value="spreadcycle"/>)";
   for (size_t at = averaged.find(drive); at != std::string::npos;
