@@ -189,7 +189,9 @@ constexpr AttributeSpec kAttrCoupling{
     "as its positions and their end speeds kept in the plugin's state, so the ring, the ripple "
     "and slips are resolved at coarse timesteps; Euler, implicit and implicitfast only, no "
     "actuator `dyntype`, and the model's steppers coupled one way (`consistent` or "
-    "`substepped`, `explicit` beside either)."};
+    "`substepped`, `explicit` beside either). Its fidelity is measured up to 2 ms "
+    "(`docs/coupling.md`): where no mode bounds the step, `info` recommends at most that and "
+    "`info` and `run` note a coarser step."};
 
 constexpr AttributeSpec kAttrFidelity{
     "fidelity", "name", "`switching`", "—",

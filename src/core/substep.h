@@ -55,6 +55,13 @@ struct RotorLoad {
 /// PAROL6's load angles move by 0.1 % between 0.2 and 0.8. 0.3 costs two thirds of 0.2.
 inline constexpr double kSubstepOmegaTimesStep = 0.3;
 
+/// The largest MuJoCo step (s) at which the sub-stepped coupling's fidelity is measured against a
+/// 10 µs reference (docs/coupling.md, "The sub-stepped rotor": the Tsui ring and ripple, arm3's
+/// lost steps, PAROL6's load angles, pull-out, StealthChop's lag; issue 30, item 3). Where no
+/// mode bounds the step (a rigid arm's only springs are its sub-stepped steppers'), the tools
+/// recommend no more than this and note a step above it as unmeasured.
+inline constexpr double kSubsteppedMeasuredStep = 2e-3;
+
 /// The most sub-steps a step takes: beyond, a rotor's ω·δ passes kSubstepOmegaTimesStep (a step
 /// of h with ωn·h > 300: a rotor whose spring rings about 50 times per step).
 inline constexpr int kMaxSubsteps = 1000;

@@ -24,6 +24,7 @@
 #include "core/attributes.h"
 #include "core/controllers/driver_chip.h"
 #include "core/signals.h"
+#include "core/substep.h"
 #include "core/thermal.h"
 #include "core/units.h"
 #include "identify.h"
@@ -158,6 +159,12 @@ int Info(const std::string& path) {
                substepped ? "the steppers' springs are sub-stepped, and no other spring holds "
                             "the model"
                           : "no spring holds the model");
+    if (substepped) {
+      fmt::print(
+          "  the sub-stepped coupling's fidelity is measured up to {:g} s (docs/coupling.md): "
+          "use timestep <= {:g} s\n",
+          kSubsteppedMeasuredStep, kSubsteppedMeasuredStep);
+    }
   } else if (verdict.failed.empty()) {
     fmt::print(
         "  timestep {:g} s passes every mode with the detents' worst-case stiffness Σ h·Nr·Kdh "
@@ -169,7 +176,9 @@ int Info(const std::string& path) {
                verdict.Message("the model", "\n    "));
   }
   // The switching choppers' cycles, which no mode shows (SPEC §11; issue 30, item 4).
-  if (const std::string note = FoldNote(sm); !note.empty()) fmt::print("  note: {}\n", note);
+  for (const std::string& note : {FoldNote(sm), SubstepNote(sm)}) {
+    if (!note.empty()) fmt::print("  note: {}\n", note);
+  }
   return 0;  // warnings inform; they do not fail the command
 }
 

@@ -104,8 +104,8 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     }
     fmt::print(progress, "warning: {}\n", message);
   }
-  if (const std::string note = FoldNote(sm); !note.empty()) {
-    fmt::print(progress, "note: {}: {}\n", options.model, note);
+  for (const std::string& note : {FoldNote(sm), SubstepNote(sm)}) {
+    if (!note.empty()) fmt::print(progress, "note: {}: {}\n", options.model, note);
   }
   DataPtr data(mj_makeData(m));
   mjData* d = data.get();

@@ -17,6 +17,7 @@
 
 #include "config.h"
 #include "core/averaged_bridge.h"
+#include "core/substep.h"
 #include "core/units.h"
 #include "installation.h"
 #include "stepper.h"
@@ -298,6 +299,18 @@ std::string FoldNote(const StepperModel& sm) {
       "at most {:.3g} s resolves: a stop where both phases chop leaves a rotor oscillation the "
       "fine reference lacks; fidelity = averaged folds nothing",
       h, fastest / 1e3, RoundDown3(0.5 / fastest));
+}
+
+std::string SubstepNote(const StepperModel& sm) {
+  const double h = sm.model->opt.timestep;  // s
+  const bool substepped =
+      std::any_of(sm.steppers.begin(), sm.steppers.end(),
+                  [](const StepperActuator& s) { return s.coupling == Coupling::kSubstepped; });
+  if (!(substepped && h > kSubsteppedMeasuredStep)) return "";
+  return fmt::format(
+      "timestep {:g} s is above {:g} s, the largest at which the sub-stepped coupling's fidelity "
+      "is measured against a 10 µs reference (docs/coupling.md, \"The sub-stepped rotor\")",
+      h, kSubsteppedMeasuredStep);
 }
 
 std::vector<int> ExcitationOrders(const DriveConfig& c) {

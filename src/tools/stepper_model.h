@@ -124,6 +124,10 @@ double SwitchingCycle(const DriveConfig& c);
 /// down, and a stop where both phases chop rings on (docs/coupling.md; issue 30, item 4).
 std::string FoldNote(const StepperModel& sm);
 
+/// "" or a note that the model's timestep is above kSubsteppedMeasuredStep (core/substep.h) while
+/// a stepper is sub-stepped: a step at which the coupling's fidelity is not measured.
+std::string SubstepNote(const StepperModel& sm);
+
 /// One resonant speed of a stepper: detent (or step) harmonic h of its motor excites mode `mode`
 /// at rotor speed n_h = 60·f/(h·Nr) r/min (SPEC §2-3: h·Nr·n/60 = f).
 struct ResonantSpeed {

@@ -769,9 +769,25 @@ TEST(Info, SaysWhenTheOnlySpringsAreSubstepped) {
   xml.insert(xml.find(input), R"(<config key="coupling" value="substepped"/>)");
   const auto model = TempDir() / "tsui_substepped.xml";
   std::ofstream(model) << xml;
-  const Result r = RunCli("info " + model.string());
+  Result r = RunCli("info " + model.string());
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("no mode to resolve (the steppers' springs are sub-stepped"));
+  // The step it recommends then is the largest at which the coupling's fidelity is measured;
+  // above it `info` and `run` note the step as unmeasured (and run).
+  EXPECT_THAT(r.output, HasSubstr("fidelity is measured up to 0.002 s (docs/coupling.md): use "
+                                  "timestep <= 0.002 s"));
+  const std::string unmeasured = "is above 0.002 s, the largest at which the sub-stepped";
+  EXPECT_THAT(r.output, Not(HasSubstr(unmeasured)));
+  const size_t step = xml.find(R"(timestep=")");
+  ASSERT_NE(step, std::string::npos);
+  xml.replace(step, xml.find('"', step + 10) + 1 - step, R"(timestep="3e-3")");
+  const auto coarse = TempDir() / "tsui_substepped_3ms.xml";
+  std::ofstream(coarse) << xml;
+  for (const std::string command : {"info ", "run --duration 0.03 --quiet "}) {
+    r = RunCli(command + coarse.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_THAT(r.output, HasSubstr("timestep 0.003 s " + unmeasured)) << command;
+  }
 }
 
 // `info` and `run` on a model with switching choppers at a step that folds their cycle (the
