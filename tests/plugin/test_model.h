@@ -39,6 +39,7 @@ inline const int kLostSteps = SignalIndex("lost_steps");
 inline const int kEnergyInput = SignalIndex("energy_input");
 inline const int kEnergyCopper = SignalIndex("energy_copper");
 inline const int kEnergyMechanical = SignalIndex("energy_mechanical");
+inline const int kOmega = SignalIndex("omega");
 
 struct ModelDeleter {
   void operator()(mjModel* m) const { mj_deleteModel(m); }
