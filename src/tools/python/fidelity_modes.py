@@ -59,6 +59,17 @@ def with_timestep(xml, h):
     return xml
 
 
+def write_model(xml, h, tmp, tag, replacements=()):
+    """Writes xml at timestep h, each (old, new) replaced once, to tmp/tag.xml; returns the path."""
+    for old, new in replacements:
+        assert old in xml, old
+        xml = xml.replace(old, new, 1)
+    model = os.path.join(tmp, f"{tag}.xml")
+    with open(model, "w", encoding="utf-8") as f:
+        f.write(with_timestep(xml, h))
+    return model
+
+
 def cli(args, cwd):
     """Runs mjstepper; returns its stdout, or raises with its stderr."""
     proc = subprocess.run([CLI] + args, cwd=cwd, capture_output=True, text=True)
@@ -105,9 +116,7 @@ BENCH_17HS19 = """<mujoco model="bench17">
 
 
 def pullout(xml, actuator, speed, h, coupling, fidelity, tmp, tag):
-    model = os.path.join(tmp, f"{tag}.xml")
-    with open(model, "w", encoding="utf-8") as f:
-        f.write(with_timestep(xml, h))
+    model = write_model(xml, h, tmp, tag)
     prefix = os.path.join(tmp, tag)
     cli(["pullout", model, "--speeds", speed, "--quiet", "--threads", "1", "--out", prefix,
          "--set", f"{actuator}.coupling={coupling}", "--set", f"{actuator}.fidelity={fidelity}"],
@@ -126,16 +135,9 @@ def pullout_tsui(h, coupling, fidelity, tmp, tag):
 
 
 def stealthchop_lag(h, coupling, fidelity, tmp, tag):
-    xml = read(os.path.join(ROOT, "models", "belt_axis.xml"))
-    for old, new in [('armature="0.36e-4"', 'armature="68e-7"'),
-                     ('damping="0.001">', 'damping="1e-4">'),
-                     ('<config key="motor" value="tsui2009"/>',
-                      '<config key="motor" value="qsh4218_51"/>')]:
-        assert old in xml, old
-        xml = xml.replace(old, new, 1)
-    model = os.path.join(tmp, f"{tag}.xml")
-    with open(model, "w", encoding="utf-8") as f:
-        f.write(with_timestep(xml, h))
+    model = write_model(read(os.path.join(ROOT, "models", "belt_axis.xml")), h, tmp, tag, [
+        ('armature="0.36e-4"', 'armature="68e-7"'), ('damping="0.001">', 'damping="1e-4">'),
+        ('<config key="motor" value="tsui2009"/>', '<config key="motor" value="qsh4218_51"/>')])
     log = os.path.join(tmp, f"{tag}.csv")
     args = ["run", model, "--allow-coarse", "--duration", "0.8", "--quiet",
             "--ctrl", "shaft=ramp(0rpm,120rpm,0.2s)", "--log", log]
@@ -148,15 +150,9 @@ def stealthchop_lag(h, coupling, fidelity, tmp, tag):
 
 
 def kim_voltage(h, coupling, fidelity, tmp, tag):
-    xml = read(os.path.join(ROOT, "models", "kim_stmms.xml"))
-    for old, new in [('value="stmms"', 'value="voltage_microstep"'),
-                     ('<config key="isr_period" value="1e-6"/>',
-                      '<config key="isr_period" value="5e-5"/>')]:
-        assert old in xml, old
-        xml = xml.replace(old, new, 1)
-    model = os.path.join(tmp, f"{tag}.xml")
-    with open(model, "w", encoding="utf-8") as f:
-        f.write(with_timestep(xml, h))
+    model = write_model(read(os.path.join(ROOT, "models", "kim_stmms.xml")), h, tmp, tag, [
+        ('value="stmms"', 'value="voltage_microstep"'),
+        ('<config key="isr_period" value="1e-6"/>', '<config key="isr_period" value="5e-5"/>')])
     log = os.path.join(tmp, f"{tag}.csv")
     cli(["run", model, "--allow-coarse", "--duration", "2", "--quiet", "--log", log,
          "--ctrl", "shaft=constant(15.70796rad)", "--set", f"shaft.coupling={coupling}",
@@ -216,9 +212,7 @@ def corexy(h, coupling, fidelity, tmp, tag):
     if not os.path.exists(steps):
         with open(steps, "w", encoding="utf-8") as f:
             f.write("".join(f"{t:.12f}\n" for t in times))
-    model = os.path.join(tmp, f"{tag}.xml")
-    with open(model, "w", encoding="utf-8") as f:
-        f.write(with_timestep(read(os.path.join(ROOT, "models", "corexy.xml")), h))
+    model = write_model(read(os.path.join(ROOT, "models", "corexy.xml")), h, tmp, tag)
     noise = os.path.join(tmp, f"{tag}_noise.csv")
     cli(["run", model, "--allow-coarse", "--duration", "0.7", "--quiet", "--accel-log", noise],
         tmp)
