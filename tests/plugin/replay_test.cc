@@ -35,7 +35,8 @@ std::string Model(const std::string& actuator, double timestep) {
 }
 
 // The Tsui PI drive (at its interrupts), the averaged SpreadCycle (whose phases' modes are state
-// too), and the Tsui drive with the sub-stepped rotor at 1 ms (its speed is state).
+// too), the Tsui drive with the sub-stepped rotor at 1 ms (its speed is state), averaged voltage
+// microstepping, and the averaged SpreadCycle sub-stepped at 1 ms (its velocity crossings).
 struct Case {
   const char* name;
   const char* actuator;
@@ -60,6 +61,19 @@ INSTANTIATE_TEST_SUITE_P(
         Case{"SubsteppedTsuiAt1ms",
              R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4">)"
              R"(<config key="motor" value="tsui2009"/><config key="input" value="velocity"/>)"
+             R"(<config key="coupling" value="substepped"/></plugin>)",
+             1e-3},
+        Case{
+            "AveragedVoltageMicrostep",
+            R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4">)"
+            R"(<config key="motor" value="tsui2009"/><config key="drive" value="voltage_microstep"/>)"
+            R"(<config key="fidelity" value="averaged"/><config key="input" value="velocity"/>)"
+            R"(</plugin>)",
+            5e-5},
+        Case{"SubsteppedAveragedSpreadCycleAt1ms",
+             R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="8.2e-6">)"
+             R"(<config key="motor" value="17hs19_2004s1"/><config key="driver" value="tmc2209"/>)"
+             R"(<config key="fidelity" value="averaged"/><config key="input" value="velocity"/>)"
              R"(<config key="coupling" value="substepped"/></plugin>)",
              1e-3}),
     [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
