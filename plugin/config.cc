@@ -7,6 +7,7 @@
 #include <numbers>
 #include <optional>
 
+#include "core/averaged_current_loop.h"
 #include "core/presets.h"
 
 namespace mjstepper::plugin {
@@ -203,9 +204,12 @@ constexpr AttributeSpec kAttrFidelity{
     "(TSTEP, the autoscale regulator) advanced by the time between events, one voltage per span "
     "instead of one per interrupt; at standstill a span lasts to the regulator's next step. "
     "`voltage_microstep`: K(5)'s rotating voltage itself, continuous, lagging by D + T/2 as its "
-    "interrupts' staircase does, on the exact winding solution over each step. `ideal_current` "
-    "has no clock: it is the same in both. So far for `chopper`, `spreadcycle`, `stealthchop`, "
-    "`voltage_microstep` and `ideal_current`."};
+    "interrupts' staircase does, on the exact winding solution over each step. "
+    "`current_microstep`: the PI loop's continuous closed-loop response, each current part "
+    "meeting the loop's own sampled, held and delayed feedback at its frequency "
+    "(`src/core/averaged_current_loop.h`), exact over each step; where the bus cuts the request "
+    "it runs the interrupts. `ideal_current` has no clock: it is the same in both. Not yet for "
+    "`servo`, `identification`, `stmms` and `high_gain_foc`."};
 
 const std::vector<const AttributeSpec*>& DriveAttributes() {
   static const std::vector<const AttributeSpec*> list = {&kAttrMotor,
@@ -400,6 +404,14 @@ DriveConfig Parse(const AttributeSource& a) {
                fmt::format("has no averaged form for drive {} yet ({} have one); use fidelity = "
                            "switching",
                            drive, fmt::join(AveragedControllerNames(), ", ")));
+    }
+    const HarmonicCompensation* damping = Damping(c.controller);
+    if (std::holds_alternative<CurrentMicrostep>(c.controller) && damping != nullptr &&
+        damping->harmonics.size() > kAveragedLoopHarmonics) {
+      ThrowBad(kAttrDamping, a.Raw(kAttrDamping).value_or(""),
+               fmt::format("switches on {} harmonics; fidelity = averaged carries at most {} "
+                           "(use fewer, or fidelity = switching)",
+                           damping->harmonics.size(), kAveragedLoopHarmonics));
     }
     c.fidelity = Fidelity::kAveraged;
   }

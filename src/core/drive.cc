@@ -14,6 +14,7 @@
 #include <tuple>
 
 #include "core/averaged_bridge.h"
+#include "core/averaged_current_loop.h"
 #include "core/motor.h"
 #include "core/sensors/encoder.h"
 #include "core/switching.h"
@@ -66,6 +67,14 @@ void Validate(const DriveConfig& c) {
             "must be <= bus_voltage/√2 for fidelity = averaged on the svpwm stage (V), where the "
             "averaged voltage is never cut");
   }
+  if (const auto* pi = std::get_if<CurrentMicrostep>(&c.controller)) {
+    const int harmonics = static_cast<int>(pi->setpoint.damping.harmonics.size());
+    Require(c.fidelity != Fidelity::kAveraged || harmonics <= kAveragedLoopHarmonics, "damping",
+            harmonics,
+            fmt::format("harmonics: fidelity = averaged carries at most {} damping harmonics",
+                        kAveragedLoopHarmonics)
+                .c_str());
+  }
   const bool switching = IsSwitching(c.controller);
   Require(!switching || c.power_stage == PowerStageKind::kTwoHBridges,
           "power_stage (0: h_bridge, 1: svpwm)", static_cast<int>(c.power_stage),
@@ -79,7 +88,7 @@ void Validate(const DriveConfig& c) {
               (HasAveragedForm(c.controller) && c.solver == WindingSolver::kExact),
           "fidelity (0: switching, 1: averaged)", static_cast<int>(c.fidelity),
           "averaged needs a drive with an averaged form (a chopper, StealthChop, voltage "
-          "microstepping, an ideal source) on the exact winding solver");
+          "microstepping, the PI drive, an ideal source) on the exact winding solver");
   Require(c.transmission.efficiency > 0 && c.transmission.efficiency <= 1, "efficiency",
           c.transmission.efficiency, "must be in (0, 1]");
   Require(c.transmission.backdrive_efficiency > 0 && c.transmission.backdrive_efficiency <= 1,
@@ -509,9 +518,7 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
       const double lag = config_.compute_delay + 0.5 * period;                       // s
       const double omega_c = h > 0 ? (command_at(t1).theta - theta_cmd0) / h : 0.0;  // rad/s
       const double wc = constants_.rotor_teeth * omega_c;                            // Ωc, rad/s
-      const double half = 0.5 * wc * period;                                         // rad
-      const double sinc = std::abs(half) < 1e-4 ? 1 - half * half / 6 : std::sin(half) / half;
-      const PhaseVector v0 = controller.RotatingAmplitude() * sinc *
+      const PhaseVector v0 = controller.RotatingAmplitude() * Sinc(0.5 * wc * period) *
                              UnitPhasor(constants_.rotor_teeth * (theta_cmd0 - omega_c * lag));
       PhaseVector current = s->current();
       if (h > 0) {
@@ -531,6 +538,37 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
       s->current_ref_b = v1.imag() / constants_.resistance;
       s->pending = 0;
       // The encoder and the speed estimate at the step's end, exact (no interrupts ran).
+      s->theta_meas = EncoderAngle(theta1, config_.encoder_counts);
+      s->omega_est = omega;
+    }
+  } else if (CurrentLoopUnit<C> && config_.fidelity == Fidelity::kAveraged) {
+    if constexpr (CurrentLoopUnit<C>) {
+      // SPEC §11, the averaged PI drive: the loop's continuous closed-loop response over the
+      // step, exact (averaged_current_loop.h), along the command's chord; no interrupts.
+      typename C::State unit = Unpack<typename C::State>(s->unit.data());
+      const double omega_c = h > 0 ? (command_at(t1).theta - theta_cmd0) / h : 0.0;  // rad/s
+      const AveragedLoopResult r = AdvanceAveragedLoop(controller, constants_, motor, stage_,
+                                                       {.theta_cmd = theta_cmd0,
+                                                        .omega_cmd = omega_c,
+                                                        .omega = omega,
+                                                        .rotor_phasor = s->rotor_phasor(),
+                                                        .rotor_phasor_end = phasor1,
+                                                        .h = h,
+                                                        .compute_delay = config_.compute_delay},
+                                                       s->current(), &unit);
+      Pack(unit, s->unit.data());
+      s->energy_input += r.energy.input;
+      s->energy_copper += r.energy.copper;
+      step_copper += r.energy.copper;
+      s->energy_mechanical += r.energy.mechanical;
+      const PhaseVector ref = controller.setpoint.Phase(constants_, command_at(t1).theta);
+      s->current_a = r.current.real();
+      s->current_b = r.current.imag();
+      s->voltage_a = r.voltage.real();
+      s->voltage_b = r.voltage.imag();
+      s->current_ref_a = ref.real();
+      s->current_ref_b = ref.imag();
+      s->pending = 0;
       s->theta_meas = EncoderAngle(theta1, config_.encoder_counts);
       s->omega_est = omega;
     }

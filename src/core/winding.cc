@@ -5,20 +5,6 @@
 
 namespace mjstepper {
 
-namespace {
-
-// ∫0^h e^{s·t} dt = (e^{s·h} − 1)·(1/s) given exp_sh = e^{s·h} and inv_s = 1/s (called only where
-// s·h is not small), by its series where s·h is small (no cancellation at s → 0; the series' error
-// there is (s·h)⁴/120 < 1e-14 relative).
-template <class InverseOfS>
-PhaseVector IntegralOfExp(PhaseVector s, double h, PhaseVector exp_sh, InverseOfS inv_s) {
-  const PhaseVector z = s * h;
-  if (std::norm(z) < 1e-6) return h * (1.0 + z / 2.0 + z * z / 6.0 + z * z * z / 24.0);
-  return (exp_sh - 1.0) * inv_s();
-}
-
-}  // namespace
-
 WindingInterval::WindingInterval(const MotorParams& p, PhaseVector current0, PhaseVector voltage,
                                  double theta0, double omega)
     : p_(p), voltage_(voltage), theta0_(theta0), omega_(omega) {

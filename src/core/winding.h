@@ -8,9 +8,30 @@
 #ifndef MJSTEPPER_CORE_WINDING_H_
 #define MJSTEPPER_CORE_WINDING_H_
 
+#include <cmath>
+
 #include "core/motor.h"
 
 namespace mjstepper {
+
+/// sin(x)/x, with its limit 1 at 0: the fundamental's amplitude of a phasor turning by 2x over
+/// each hold of a zero-order hold (the staircase of a drive's interrupts).
+/// Below |x| = 0.2 by its series to x⁸ (the remainder x¹⁰/11! < 3e-15).
+inline double Sinc(double x) {
+  if (std::abs(x) >= 0.2) return std::sin(x) / x;
+  const double u = x * x;
+  return 1 - u / 6 * (1 - u / 20 * (1 - u / 42 * (1 - u / 72)));
+}
+
+/// ∫0^h e^{s·t} dt = (e^{s·h} − 1)·(1/s) given exp_sh = e^{s·h} and inv_s() = 1/s (called only
+/// where s·h is not small), by its series where s·h is small (no cancellation at s → 0; the
+/// series' error there is (s·h)⁴/120 < 1e-14 relative).
+template <class InverseOfS>
+PhaseVector IntegralOfExp(PhaseVector s, double h, PhaseVector exp_sh, InverseOfS inv_s) {
+  const PhaseVector z = s * h;
+  if (std::norm(z) < 1e-6) return h * (1.0 + z / 2.0 + z * z / 6.0 + z * z * z / 24.0);
+  return (exp_sh - 1.0) * inv_s();
+}
 
 /// Energies over one interval, J. Input va·ia + vb·ib, copper R·|i|², mechanical τm·ω (S-8).
 struct IntervalEnergy {

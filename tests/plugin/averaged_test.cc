@@ -335,18 +335,115 @@ TEST(Averaged, AVelocityCommandMovesTheTableAtItsCrossings) {
   EXPECT_LT(error[0], 1.5 * error[1]);
 }
 
+// The averaged PI drive (averaged_current_loop.h) against its switching twin on the Tsui motor
+// (models/tsui_rigid.xml) at 180 r/min with every detent harmonic compensated (T(13)): the
+// rotor's speed ripple, the mean q current in the command's frame and the copper loss, at the
+// model's 50 µs step and sub-stepped at 1 ms. The ripple left by the compensation is small (1.7
+// r/min RMS) and follows the loop's response at 4·Nr·ω, near its bandwidth, so it shows the
+// feedback's lag at each part's own frequency (read at the frame's, it was 18 % high). The target
+// is SPEC §11's 5 % for ripple; measured +1.3 % at 50 µs and +2.5 % at 1 ms.
+TEST(Averaged, PiDriveIsItsLoopsFrequencyResponse) {
+  constexpr double kSpeed = 180 * 2 * std::numbers::pi / 60;  // rad/s
+  struct Run {
+    const char* fidelity;
+    const char* timestep;
+    const char* coupling;
+    double ripple = 0, iq = 0, copper = 0;
+  };
+  Run runs[] = {{"switching", "5e-5", "consistent"},
+                {"averaged", "5e-5", "consistent"},
+                {"averaged", "1e-3", "substepped"}};
+  for (Run& run : runs) {
+    SCOPED_TRACE(fmt::format("{} {} {}", run.fidelity, run.timestep, run.coupling));
+    std::string xml =
+        ShippedModelWithSignals("tsui_rigid.xml", "shaft",
+                                Config("fidelity", run.fidelity) + Config("damping", "all") +
+                                    Config("coupling", run.coupling));
+    const size_t at = xml.find("timestep=\"5e-5\"");
+    ASSERT_NE(at, std::string::npos);
+    xml.replace(at, 16, fmt::format("timestep=\"{}\"", run.timestep));
+    std::string error;
+    const ModelPtr m = LoadModel(xml, &error);
+    ASSERT_TRUE(m) << error;
+    const DataPtr d(mj_makeData(m.get()));
+    double sum = 0, sum2 = 0, iq = 0, copper0 = 0;
+    int n = 0;
+    while (d->time < 1.0 - 1e-9) {
+      d->ctrl[0] = kSpeed * std::min(1.0, d->time / 0.3);
+      mj_step(m.get(), d.get());
+      if (d->time < 0.6 - 1e-9) {
+        copper0 = d->sensordata[kEnergyCopper];
+        continue;
+      }
+      const double omega = d->sensordata[kOmega];
+      sum += omega, sum2 += omega * omega;
+      iq += d->sensordata[SignalIndex("current_q")];
+      ++n;
+    }
+    const double mean = sum / n;
+    run.ripple = std::sqrt(std::max(0.0, sum2 / n - mean * mean));  // rad/s
+    run.iq = iq / n;
+    run.copper = d->sensordata[kEnergyCopper] - copper0;
+    std::printf("%s %s %s: ripple %.5f rad/s, iq %.5f A, copper 0.6-1 s %.6f J\n", run.fidelity,
+                run.timestep, run.coupling, run.ripple, run.iq, run.copper);
+  }
+  const Run& reference = runs[0];
+  ASSERT_GT(reference.ripple, 0.1);  // rad/s: there is a ripple to compare
+  for (const Run& run : {runs[1], runs[2]}) {
+    EXPECT_NEAR(run.ripple / reference.ripple, 1.0, 0.05) << run.fidelity << " " << run.timestep;
+    // The integrator holds the sampled current on the command: a lagged read left it 0.094 A
+    // behind (Ωc·τ·Id), the switching loop's mean is within a few mA of 0.
+    EXPECT_NEAR(run.iq, reference.iq, 0.01) << run.timestep;
+    // The copper loss over 0.4 s: 0.2 % (measured 0.03 % at 50 µs; the PWM is averaged in both).
+    EXPECT_NEAR(run.copper / reference.copper, 1.0, 2e-3) << run.timestep;
+  }
+}
+
+// Where the bus cuts the PI's request (20 V at 450 r/min, S-13), the averaged drive runs the
+// interrupts' own loop: its mean load angle is within 3 % of the switching twin's (measured
+// 1.5 %; run on the closed form's linear response it is far off).
+TEST(Averaged, PiDriveAtTheBusLimitRunsItsInterrupts) {
+  constexpr double kSpeed = 450 * 2 * std::numbers::pi / 60;  // rad/s
+  double angle[2] = {0, 0}, current_d[2] = {0, 0};
+  for (int f = 0; f < 2; ++f) {
+    const char* fidelity = f == 0 ? "averaged" : "switching";
+    SCOPED_TRACE(fidelity);
+    const ModelPtr m = LoadModel(ShippedModelWithSignals(
+        "tsui_rigid.xml", "shaft", Config("fidelity", fidelity) + Config("bus_voltage", "20")));
+    ASSERT_TRUE(m);
+    const DataPtr d(mj_makeData(m.get()));
+    int n = 0;
+    while (d->time < 1.0 - 1e-9) {
+      d->ctrl[0] = kSpeed * std::min(1.0, d->time / 0.5);
+      mj_step(m.get(), d.get());
+      if (d->time >= 0.6) {
+        angle[f] += d->sensordata[kLoadAngle];
+        current_d[f] += d->sensordata[kCurrentD];
+        ++n;
+      }
+    }
+    angle[f] /= n, current_d[f] /= n;
+    std::printf("%s: load angle %.5f rad, id %.5f A\n", fidelity, angle[f], current_d[f]);
+  }
+  // The bus holds id well under the setpoint's 1.9 A: the stage does cut.
+  ASSERT_LT(current_d[1], 1.7);
+  EXPECT_NEAR(angle[0] / angle[1], 1.0, 0.03);
+  EXPECT_NEAR(current_d[0] / current_d[1], 1.0, 0.02);
+}
+
 TEST(Averaged, ADriveWithoutAnAveragedFormIsRefused) {
   std::string error;
   const ModelPtr m = LoadModel(
       RotorModel(R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" armature="1e-4">)" +
-                 Config("motor", "17hs19_2004s1") + Config("fidelity", "averaged") + "</plugin>"),
+                 Config("motor", "17hs19_2004s1") + Config("drive", "servo") +
+                 Config("fidelity", "averaged") + "</plugin>"),
       &error);
   EXPECT_FALSE(m);
   EXPECT_NE(error.find("fidelity = \"averaged\""), std::string::npos) << error;
-  EXPECT_NE(error.find("current_microstep"), std::string::npos) << error;
-  EXPECT_NE(
-      error.find("voltage_microstep, ideal_current, chopper, spreadcycle, stealthchop have one"),
-      std::string::npos)
+  EXPECT_NE(error.find("drive servo"), std::string::npos) << error;
+  EXPECT_NE(error.find("current_microstep, voltage_microstep, ideal_current, chopper, spreadcycle, "
+                       "stealthchop have one"),
+            std::string::npos)
       << error;
 }
 

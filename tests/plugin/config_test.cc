@@ -164,6 +164,22 @@ TEST(Config, AveragedVoltageBeyondSvpwmsLinearRangeFails) {
                                                             {"voltage_amplitude", "30"}})));
 }
 
+// The averaged PI drive carries at most kAveragedLoopHarmonics damping harmonics (two terms each
+// in its closed form).
+TEST(Config, AveragedPiDriveRefusesMoreDampingHarmonicsThanItCarries) {
+  const std::string five = "4 0.006 0; 2 0.014 3.14; 1 0.011 1.57; 3 0.001 0; 5 0.001 0";
+  const auto parsed =
+      ParseMap({{"damping", "all"}, {"damping_detent", five}, {"fidelity", "averaged"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(parsed));
+  EXPECT_THAT(std::get<std::string>(parsed),
+              HasSubstr("damping = \"all\": switches on 5 harmonics; fidelity = averaged carries "
+                        "at most 4"));
+  EXPECT_TRUE(std::holds_alternative<DriveConfig>(
+      ParseMap({{"damping", "all"}, {"damping_detent", five}, {"fidelity", "switching"}})));
+  EXPECT_TRUE(std::holds_alternative<DriveConfig>(
+      ParseMap({{"damping", "4 2 1 3"}, {"damping_detent", five}, {"fidelity", "averaged"}})));
+}
+
 // An attribute the chosen drive does not read is an error naming the drives that read it, not a
 // silent no-op (a typo of intent, such as servo gains on an open-loop drive).
 TEST(Config, AttributeOfAnotherDriveFails) {

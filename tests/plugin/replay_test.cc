@@ -75,6 +75,12 @@ INSTANTIATE_TEST_SUITE_P(
              R"(<config key="motor" value="17hs19_2004s1"/><config key="driver" value="tmc2209"/>)"
              R"(<config key="fidelity" value="averaged"/><config key="input" value="velocity"/>)"
              R"(<config key="coupling" value="substepped"/></plugin>)",
+             1e-3},
+        Case{"SubsteppedAveragedPiDriveAt1ms",
+             R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4">)"
+             R"(<config key="motor" value="tsui2009"/><config key="damping" value="all"/>)"
+             R"(<config key="fidelity" value="averaged"/><config key="input" value="velocity"/>)"
+             R"(<config key="coupling" value="substepped"/></plugin>)",
              1e-3}),
     [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
 

@@ -122,17 +122,22 @@ concept RotatingVoltageUnit = requires(const C& u) {
   { u.RotatingAmplitude() } -> std::same_as<double>;
 };
 
+/// A PI current loop in the commanded frame (T(9)-(13)): its averaged form is the loop's
+/// continuous closed-loop response (averaged_current_loop.h).
+template <class C>
+concept CurrentLoopUnit = std::same_as<C, CurrentMicrostep>;
+
 /// An ideal source: no clock, no windings; its averaged form is itself.
 template <class C>
 concept IdealSourceUnit = requires {
   C::kIdealSource;
 };
 
-/// A unit with an averaged form: a chopper (averaged_bridge.h), a SpanUnit, a rotating voltage or
-/// an ideal source.
+/// A unit with an averaged form: a chopper (averaged_bridge.h), a SpanUnit, a rotating voltage, a
+/// PI current loop or an ideal source.
 template <class C>
-concept AveragedUnit =
-    SwitchingUnit<C> || SpanUnit<C> || RotatingVoltageUnit<C> || IdealSourceUnit<C>;
+concept AveragedUnit = SwitchingUnit<C> || SpanUnit<C> || RotatingVoltageUnit<C> ||
+    CurrentLoopUnit<C> || IdealSourceUnit<C>;
 
 /// Whether a controller has an averaged form (fidelity = averaged).
 inline bool HasAveragedForm(const Controller& c) {

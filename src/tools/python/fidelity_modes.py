@@ -233,7 +233,8 @@ def corexy(h, coupling, fidelity, tmp, tag):
 MEASURES = [
     ("pull-out, 17HS19 on a TMC2209 at 300 r/min", 0.02, pullout_17hs19,
      ("switching", "averaged"), "N·m"),
-    ("pull-out, Tsui PI drive at 120 r/min", 0.02, pullout_tsui, ("switching",), "N·m"),
+    ("pull-out, Tsui PI drive at 120 r/min", 0.02, pullout_tsui, ("switching", "averaged"),
+     "N·m"),
     ("StealthChop's lag at 120 r/min", 0.05, stealthchop_lag, ("switching", "averaged"),
      "full steps"),
     ("voltage microstepping (Kim): load angle in cruise", 0.02, kim_voltage,
