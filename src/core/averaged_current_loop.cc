@@ -73,21 +73,20 @@ AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const Drive
     return std::min(step.h, t + (half - x) / rate);
   };
 
-  // The feedback's lag and the hold's sinc for a frame turning at Ωf (1 for a held frame), and
-  // the loop's closed-loop rate α.
+  // The frame's speed, its parts' lead over the lagged command, the hold's sinc at Ωf.
   const double frame_speed = staircase ? 0.0 : wc;  // Ωf, rad/s
   const PhaseVector lead = UnitPhasor(wc * lag);    // e^{jΩc·τ}
   const double frame_sinc = Sinc(0.5 * frame_speed * period);
   // The feedback −Kp·i(t_k), held from t_k + D over T, for a current part turning at μ: its
   // fundamental −Kp·sinc(μ·T/2)·e^{−jμτ}·i(t) (the frame's rotation cancels: the loop reads and
   // writes the current in the same ψk). Exact for each forced part; the transient, which turns
-  // with no single μ, takes the frame's (below).
-  auto Feedback = [&](double mu) {  // G(μ)
+  // with no single μ, takes the frame's: α = (R + Kp·G(Ωf))/L.
+  auto feedback = [&](double mu) {  // G(μ)
     return mu == wc ? Sinc(0.5 * mu * period) * std::conj(lead)
                     : Sinc(0.5 * mu * period) * UnitPhasor(-mu * lag);
   };
-  const PhaseVector g = staircase ? PhaseVector(1.0) : frame_sinc * std::conj(lead);
-  const PhaseVector alpha = (R + kp * g) / L;  // 1/s
+  const PhaseVector g = feedback(frame_speed);  // 1 for a held frame
+  const PhaseVector alpha = (R + kp * g) / L;   // 1/s
   PhaseVector current = current0;
   PhaseVector integral(state->integral_d, state->integral_q);                // s, V (dq)
   PhaseVector phasor = step.rotor_phasor;                                    // e^{jx(t)}
@@ -107,7 +106,7 @@ AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const Drive
     // A known voltage part c·e^{jμt} (before the hold's sinc), setpoint part d in dq.
     auto add_known = [&](double mu, double sinc, PhaseVector c, PhaseVector d) {
       const PhaseVector held = sinc * c;  // V
-      const PhaseVector loop = kp * Feedback(mu);
+      const PhaseVector loop = kp * feedback(mu);
       const PhaseVector i = held / (PhaseVector(R, mu * L) + loop);
       p.Add({0, mu}, i, held - loop * i, d);
     };
@@ -126,7 +125,7 @@ AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const Drive
                 -amplitude * std::conj(unlagged));
     }
     const int emf = [&] {  // the back-EMF's part
-      const PhaseVector loop = kp * Feedback(w);
+      const PhaseVector loop = kp * feedback(w);
       const PhaseVector i = -emf_coefficient * phasor / (PhaseVector(R, w * L) + loop);
       return p.Add({0, w}, i, -loop * i, 0.0);
     }();
