@@ -514,10 +514,11 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
       // clock. θcmd follows the step's chord (exact for velocity and STEP/DIR input, linear
       // within a step; a position command's jump is spread over the step), and the lag reaches
       // back along it. The stage never cuts it (Validate: Vmax within the stage's linear range).
-      const double period = config_.isr_period;                                      // T, s
-      const double lag = config_.compute_delay + 0.5 * period;                       // s
-      const double omega_c = h > 0 ? (command_at(t1).theta - theta_cmd0) / h : 0.0;  // rad/s
-      const double wc = constants_.rotor_teeth * omega_c;                            // Ωc, rad/s
+      const double period = config_.isr_period;                            // T, s
+      const double lag = config_.compute_delay + 0.5 * period;             // s
+      const double theta_cmd1 = command_at(t1).theta;                      // rad
+      const double omega_c = h > 0 ? (theta_cmd1 - theta_cmd0) / h : 0.0;  // rad/s
+      const double wc = constants_.rotor_teeth * omega_c;                  // Ωc, rad/s
       const PhaseVector v0 = controller.RotatingAmplitude() * Sinc(0.5 * wc * period) *
                              UnitPhasor(constants_.rotor_teeth * (theta_cmd0 - omega_c * lag));
       PhaseVector current = s->current();
@@ -546,7 +547,8 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
       // SPEC §11, the averaged PI drive: the loop's continuous closed-loop response over the
       // step, exact (averaged_current_loop.h), along the command's chord; no interrupts.
       typename C::State unit = Unpack<typename C::State>(s->unit.data());
-      const double omega_c = h > 0 ? (command_at(t1).theta - theta_cmd0) / h : 0.0;  // rad/s
+      const double theta_cmd1 = command_at(t1).theta;                      // rad
+      const double omega_c = h > 0 ? (theta_cmd1 - theta_cmd0) / h : 0.0;  // rad/s
       const AveragedLoopResult r = AdvanceAveragedLoop(controller, constants_, motor, stage_,
                                                        {.theta_cmd = theta_cmd0,
                                                         .omega_cmd = omega_c,
@@ -561,7 +563,7 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
       s->energy_copper += r.energy.copper;
       step_copper += r.energy.copper;
       s->energy_mechanical += r.energy.mechanical;
-      const PhaseVector ref = controller.setpoint.Phase(constants_, command_at(t1).theta);
+      const PhaseVector ref = controller.setpoint.Phase(constants_, theta_cmd1);
       s->current_a = r.current.real();
       s->current_b = r.current.imag();
       s->voltage_a = r.voltage.real();
