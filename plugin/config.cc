@@ -208,8 +208,10 @@ constexpr AttributeSpec kAttrFidelity{
     "`current_microstep`: the PI loop's continuous closed-loop response, each current part "
     "meeting the loop's own sampled, held and delayed feedback at its frequency "
     "(`src/core/averaged_current_loop.h`), exact over each step; where the bus cuts the request "
-    "it runs the interrupts. `ideal_current` has no clock: it is the same in both. Not yet for "
-    "`servo`, `identification`, `stmms` and `high_gain_foc`."};
+    "it runs the interrupts. `servo` and `identification`: the same loop in the encoder's frame, "
+    "the position loop of T(19) still run at each of its own ticks. `ideal_current` has no "
+    "clock: it is the same in both. Not for `stmms` and `high_gain_foc`, whose position loops "
+    "must be evaluated at their own bandwidth, near the clock (`docs/coupling.md`)."};
 
 const std::vector<const AttributeSpec*>& DriveAttributes() {
   static const std::vector<const AttributeSpec*> list = {&kAttrMotor,
@@ -405,13 +407,12 @@ DriveConfig Parse(const AttributeSource& a) {
                            "switching",
                            drive, fmt::join(AveragedControllerNames(), ", ")));
     }
-    const HarmonicCompensation* damping = Damping(c.controller);
-    if (std::holds_alternative<CurrentMicrostep>(c.controller) && damping != nullptr &&
-        damping->harmonics.size() > kAveragedLoopHarmonics) {
+    if (const std::size_t harmonics = LoopSetpointHarmonics(c.controller);
+        harmonics > kAveragedLoopHarmonics) {
       ThrowBad(kAttrDamping, a.Raw(kAttrDamping).value_or(""),
                fmt::format("switches on {} harmonics; fidelity = averaged carries at most {} "
                            "(use fewer, or fidelity = switching)",
-                           damping->harmonics.size(), kAveragedLoopHarmonics));
+                           harmonics, kAveragedLoopHarmonics));
     }
     c.fidelity = Fidelity::kAveraged;
   }

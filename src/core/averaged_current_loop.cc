@@ -39,20 +39,43 @@ PhaseVector PairIntegral(const Piece& p, int k, int l, double h) {
 
 }  // namespace
 
-AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const DriveConstants& k,
-                                       const MotorParams& motor, const PowerStage& stage,
-                                       const AveragedLoopStep& step, PhaseVector current0,
-                                       CurrentMicrostep::State* state) {
+// The transient's rate (averaged_current_loop.h): the root of L·λ + R + Kp·G(λ) = 0 at λ = −α.
+// Faster than (R + Kp)/L: the sampled loop reacts to the
+// error it read τ before, when it was larger (Tsui's loop: 4 740 1/s against 3 818; the digital
+// loop's dominant pole, −ln(z)/T, is 4 752). By Newton's method from (R + Kp)/L, which converges
+// from below (f is convex); where the delay leaves no real root (Kp·τ comparable with L: the loop
+// rings), or Newton does not settle, (R + Kp)/L.
+LoopTransient TransientRate(double R, double L, double kp, double period, double lag) {
+  const LoopTransient undelayed{.rate = (R + kp) / L, .per_ohm = 1 / L};
+  double alpha = undelayed.rate;
+  for (int i = 0; i < 16; ++i) {
+    const double x = 0.5 * alpha * period;
+    const double held = x < 1e-4 ? 1 + x * x / 6 : std::sinh(x) / x;         // sinh(x)/x
+    const double held_slope = x < 1e-4 ? x / 3 : (std::cosh(x) - held) / x;  // d/dx
+    const double delay = std::exp(alpha * lag);
+    const double f = R + kp * delay * held - L * alpha;
+    const double slope = kp * delay * (lag * held + 0.5 * period * held_slope) - L;  // ∂f/∂α
+    if (!(slope < 0)) return undelayed;  // past the minimum: no root on this side
+    const double next = alpha - f / slope;
+    if (std::abs(next - alpha) <= 1e-12 * alpha) return {.rate = next, .per_ohm = -1 / slope};
+    alpha = next;
+  }
+  return undelayed;
+}
+
+AveragedLoopResult AdvanceAveragedLoop(const MicrostepSetpoint& setpoint, const DqCurrentLoop& loop,
+                                       const DriveConstants& k, const MotorParams& motor,
+                                       const PowerStage& stage, const AveragedLoopStep& step,
+                                       PhaseVector current0, PhaseVector* integral_dq) {
   AveragedLoopResult result;
   const double R = motor.resistance, L = motor.inductance;  // Ω, H: the winding's own
   const double nr = k.rotor_teeth;
   const double period = k.isr_period;                    // T, s
   const double lag = step.compute_delay + 0.5 * period;  // τ = D + T/2, s
-  const double kp = unit.loop.kp;                        // V/A
-  const double ki = unit.loop.ki_per_tick / period;      // V/(A·s)
-  const double wc = nr * step.omega_cmd;                 // Ωc, rad/s
+  const double kp = loop.kp;                             // V/A
+  const double ki = loop.ki_per_tick / period;           // V/(A·s)
+  const double wc = nr * step.omega_frame;               // Ωc, rad/s
   const double w = nr * step.omega;                      // Ω, rad/s
-  const MicrostepSetpoint& setpoint = unit.setpoint;
   const std::vector<DetentHarmonic>& harmonics = setpoint.damping.harmonics;
 
   // The table's staircase: piece by piece between the lagged command's crossings, or (more than
@@ -60,7 +83,7 @@ AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const Drive
   const int microsteps = setpoint.microsteps;
   const double microstep = microsteps > 0 ? std::numbers::pi / 2 / microsteps : 0.0;  // Δψ, rad
   auto lagged_angle = [&](double t) {  // Nr·θcmd(t − τ), electrical rad
-    return nr * (step.theta_cmd + step.omega_cmd * (t - lag));
+    return nr * (step.theta_frame + step.omega_frame * (t - lag));
   };
   const bool staircase = microsteps > 0 && std::abs(wc) * step.h <= kAveragedLoopPieces * microstep;
   const double fundamental = microsteps > 0 && !staircase ? Sinc(0.5 * microstep) : 1.0;
@@ -79,16 +102,16 @@ AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const Drive
   const double frame_sinc = Sinc(0.5 * frame_speed * period);
   // The feedback −Kp·i(t_k), held from t_k + D over T, for a current part turning at μ: its
   // fundamental −Kp·sinc(μ·T/2)·e^{−jμτ}·i(t) (the frame's rotation cancels: the loop reads and
-  // writes the current in the same ψk). Exact for each forced part; the transient, which turns
-  // with no single μ, takes the frame's: α = (R + Kp·G(Ωf))/L.
+  // writes the current in the same ψk). Exact for each forced part; the transient meets it at its
+  // own rate: α = (R + Kp·G(−α))/L (TransientRate).
   auto feedback = [&](double mu) {  // G(μ)
     return mu == wc ? Sinc(0.5 * mu * period) * std::conj(lead)
                     : Sinc(0.5 * mu * period) * UnitPhasor(-mu * lag);
   };
-  const PhaseVector g = feedback(frame_speed);  // 1 for a held frame
-  const PhaseVector alpha = (R + kp * g) / L;   // 1/s
+  const double alpha = step.transient_rate > 0 ? step.transient_rate
+                                               : TransientRate(R, L, kp, period, lag).rate;  // 1/s
   PhaseVector current = current0;
-  PhaseVector integral(state->integral_d, state->integral_q);                // s, V (dq)
+  PhaseVector integral = *integral_dq;                                       // s, V (dq)
   PhaseVector phasor = step.rotor_phasor;                                    // e^{jx(t)}
   const PhaseVector emf_coefficient(0, motor.torque_constant * step.omega);  // e = j·Km·ω·e^{jx}
   double t = 0;
@@ -100,7 +123,7 @@ AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const Drive
     const double frame0 = staircase ? setpoint.Angle(k, (lagged_angle(t + 0.5 * h)) / nr) : phase0;
     const PhaseVector frame = UnitPhasor(frame0);
     const PhaseVector start = current;  // A
-    bool linear = alpha.real() > 0;
+    bool linear = alpha > 0;
 
     Piece p;
     // A known voltage part c·e^{jμt} (before the hold's sinc), setpoint part d in dq.
@@ -110,9 +133,9 @@ AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const Drive
       const PhaseVector i = held / (PhaseVector(R, mu * L) + loop);
       p.Add({0, mu}, i, held - loop * i, d);
     };
-    // Id with the integrator, T(12): e^{jψ}·(Kp·Id + s).
-    const double id = fundamental * setpoint.hold_current;  // A
-    add_known(frame_speed, frame_sinc, frame * (kp * id + fundamental * integral), id);
+    // Id (T(12)) and the held iq* with the integrator: e^{jψ}·(Kp·(Id + j·iq*) + s).
+    const PhaseVector held_dq = fundamental * PhaseVector(setpoint.hold_current, step.iq);  // A
+    add_known(frame_speed, frame_sinc, frame * (kp * held_dq + fundamental * integral), held_dq);
     // iq* of T(13): j·(A/Km)·sin(n·x + φ) = (A/2Km)·(e^{j(n·x + φ)} − e^{−j(n·x + φ)}).
     for (const DetentHarmonic& hm : harmonics) {
       const double amplitude = fundamental * hm.amplitude / (2 * k.torque_constant);  // A
@@ -131,7 +154,7 @@ AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const Drive
     }();
     PhaseVector transient = current;
     for (int j = 0; j < p.n; ++j) transient -= p.current[j];
-    p.Add(-alpha, transient, -kp * g * transient, 0.0);
+    p.Add(-alpha, transient, (R - L * alpha) * transient, 0.0);  // Kp·G(−α) = L·α − R
 
     // The voltage at samples at most kSampleRotation apart, each within the stage's range; the
     // exponentials at the piece's end from the samples' steps.
@@ -207,8 +230,6 @@ AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const Drive
       // The bus cuts the request: the interrupts' own loop from the piece's start, a tick each
       // period T whose voltage applies D later (until then the one before: at the first, the
       // closed form's), each held interval on the exact winding solution.
-      state->integral_d = integral.real();
-      state->integral_q = integral.imag();
       PhaseVector held = 0;  // V
       for (int j = 0; j < p.n; ++j) held += p.voltage[j];
       held = stage.Apply(held).voltage;
@@ -224,24 +245,24 @@ AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const Drive
       };
       for (double u = t; u < t_end; u += period) {
         const double length = std::min(period, t_end - u);  // s
-        const Sample sample{
-            .command = {.theta = step.theta_cmd + step.omega_cmd * u, .omega = step.omega_cmd},
-            .feedback = {},
-            .current = current};
-        const TickOutput out = unit.TickFor(k, sample, stage, length / period, state);
+        // The tick of T(9)-(11) in the frame at u, its integrator moving by the share of Ki·e
+        // its held voltage lasts (the last may be cut short by the piece's end).
+        const double theta_frame = step.theta_frame + step.omega_frame * u;  // rad
+        const PhaseVector target = setpoint.Dq(k, theta_frame) + PhaseVector(0, step.iq);
+        const PhaseVector park = UnitPhasor(setpoint.Angle(k, theta_frame));
+        const DqCurrentLoop share{.kp = kp, .ki_per_tick = length / period * loop.ki_per_tick};
+        const BridgeOutput out = share.Update(target, park, current, stage, &integral);
         const double delay = std::min(step.compute_delay, length);  // s
         advance(delay, held);
-        advance(length - delay, out.bridge.voltage);
-        held = out.bridge.voltage;
+        advance(length - delay, out.voltage);
+        held = out.voltage;
         ++result.held;
       }
       result.voltage = held;
-      integral = PhaseVector(state->integral_d, state->integral_q);
     }
     t = t_end;
   }
-  state->integral_d = integral.real();
-  state->integral_q = integral.imag();
+  *integral_dq = integral;
   result.current = current;
   return result;
 }

@@ -16,7 +16,9 @@
 // back-EMF's j·Km·ω·e^{jx(t)}) is then exactly
 //   Pm = Vm / (R + jμm·L + Kp·G(μm)),
 // and the current is i(t) = Σm Pm·e^{jμm·t} + C·e^{−α·t}, C = i0 − Σm Pm, whose transient turns
-// with no single μ and decays at α = (R + Kp·G(Ωf))/L, the frame's (Ωf below). Every part meets
+// with no single μ and decays at α = (R + Kp·G(−α))/L, the root at which the sampled, delayed
+// feedback meets its own exponential (G(−α) = e^{ατ}·sinh(αT/2)/(αT/2); the digital loop's
+// dominant pole to 0.3 % on Tsui's drive). Every part meets
 // S-3 exactly, so S-8's energies follow in closed form (integrals of products of exponentials).
 //
 // The frame: with a continuous setpoint (microsteps = 0) it turns at Ωf = Ωc = Nr·θ̇cmd. A table's
@@ -52,16 +54,35 @@ inline constexpr int kAveragedLoopHarmonics = 4;
 /// fundamental rather than piece by piece.
 inline constexpr int kAveragedLoopPieces = 2;
 
-/// One (sub-)step of the averaged PI drive: the command's chord and the rotor's motion over it.
+/// One (sub-)step of an averaged PI loop: its frame's chord and the rotor's motion over it.
 struct AveragedLoopStep {
-  double theta_cmd = 0;          ///< θcmd at the step's start, rad (rotor side)
-  double omega_cmd = 0;          ///< its chord's speed over the step, rad/s
+  /// The frame's angle at the step's start, rad (rotor side): θcmd for the PI drive (S-12), the
+  /// encoder's θfb for the servo and identification (T(18)).
+  double theta_frame = 0;
+  double omega_frame = 0;        ///< its chord's speed over the step, rad/s
   double omega = 0;              ///< the rotor's speed, constant over the step, rad/s
   PhaseVector rotor_phasor;      ///< e^{jNr·θ} at the step's start
   PhaseVector rotor_phasor_end;  ///< and at its end
   double h = 0;                  ///< s
   double compute_delay = 0;      ///< D, s
+  /// A, an iq* held over the step beside the setpoint's: the servo's T(19) between position
+  /// updates, identification's Fs·sgn(ωfb)/Km of T(8); 0 for the PI drive.
+  double iq = 0;
+  /// 1/s, the transient's rate TransientRate() for this winding and loop, made once; 0: made here.
+  double transient_rate = 0;
 };
+
+/// The rate α (1/s) at which the loop's transient decays: the real root of
+/// L·α = R + Kp·G(−α), G(−α) = e^{ατ}·sinh(αT/2)/(αT/2), the sampled, held feedback delayed by
+/// τ = D + T/2 meeting its own exponential; and dα/dR there (1/(Ω·s)), for a winding whose R
+/// moves with its temperature (linear in R to 5e-5 of α over a 40 % rise on Tsui's drive).
+/// Depends on the winding and the loop only: made at load.
+struct LoopTransient {
+  double rate = 0;     ///< α, 1/s
+  double per_ohm = 0;  ///< dα/dR, 1/(Ω·s)
+};
+LoopTransient TransientRate(double resistance, double inductance, double kp, double period,
+                            double lag);
 
 /// What the step leaves: the phase currents and the applied voltage at its end, and its energies.
 struct AveragedLoopResult {
@@ -72,12 +93,14 @@ struct AveragedLoopResult {
   int held = 0;    ///< held-voltage periods (the bus cut the request)
 };
 
-/// Advances the PI drive's windings and integrator (state) over one (sub-)step. `k` is what the
-/// drive assumes (Km for iq*, T), `motor` the winding's true, possibly hot, constants.
-AveragedLoopResult AdvanceAveragedLoop(const CurrentMicrostep& unit, const DriveConstants& k,
-                                       const MotorParams& motor, const PowerStage& stage,
-                                       const AveragedLoopStep& step, PhaseVector current0,
-                                       CurrentMicrostep::State* state);
+/// Advances the windings and the loop's integrator s (V, d + j·q; updated in place) over one
+/// (sub-)step, the loop regulating `setpoint` (T(12)-(13): id*, the damping harmonics in iq*, the
+/// table) plus j·step.iq in its frame. `k` is what the drive assumes (Km for iq*, T), `motor` the
+/// winding's true, possibly hot, constants.
+AveragedLoopResult AdvanceAveragedLoop(const MicrostepSetpoint& setpoint, const DqCurrentLoop& loop,
+                                       const DriveConstants& k, const MotorParams& motor,
+                                       const PowerStage& stage, const AveragedLoopStep& step,
+                                       PhaseVector current0, PhaseVector* integral);
 
 }  // namespace mjstepper
 

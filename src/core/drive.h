@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "core/averaged_bridge.h"
+#include "core/averaged_current_loop.h"
 #include "core/controllers/registry.h"
 #include "core/motion_profile.h"
 #include "core/motor_params.h"
@@ -395,13 +396,15 @@ class Drive {
     const DecayKernel* kernels = nullptr;  // made at load, for the motor's R: their lengths
     int kernel_count = 0;
     DecayKernel* made = nullptr;  // with heat: kernel_count slots for this step's R
+    double loop_rate = 0;  // 1/s, an averaged PI loop's transient rate for this R (0: not made)
   };
 
   // The winding of a drive without heat: the motor and the kernels made at load.
   StepWinding ColdWinding() const {
     return {.motor = &config_.motor,
             .kernels = decay_kernels_.data(),
-            .kernel_count = static_cast<int>(decay_kernels_.size())};
+            .kernel_count = static_cast<int>(decay_kernels_.size()),
+            .loop_rate = loop_transient_.rate};
   }
 
   // The step with heat: AdvanceWith on the winding at its starting temperature, then the thermal
@@ -465,6 +468,7 @@ class Drive {
   std::vector<DecayKernel> decay_kernels_;  // for T, D and T − D, computed once
   double step_angle_ = 0;                   // rad per microstep (StepAngle)
   RippleOffsets ripple_;                    // averaged chopper: its cycle's mean offset, at load
+  LoopTransient loop_transient_;            // averaged PI loop: its transient's rate, cold
   std::optional<ThermalNetwork> thermal_;   // with heat: the network, decomposed once
   MotorParams winding_motor_;               // with heat: the motor without its detent list, which
                                             // the winding never reads (copied per step, no

@@ -335,73 +335,106 @@ TEST(Averaged, AVelocityCommandMovesTheTableAtItsCrossings) {
   EXPECT_LT(error[0], 1.5 * error[1]);
 }
 
+// A run of models/tsui_rigid.xml on `drive` with `configs` at `timestep` under `coupling`, ramped
+// to `speed` (rad/s) over 0.3 s: the rotor's speed ripple (RMS about its mean, rad/s), the mean q
+// current (A) and the copper loss (J), measured over 0.6-1 s.
+struct TsuiRun {
+  double ripple = 0, iq = 0, copper = 0;
+};
+TsuiRun RunTsui(const char* drive, const std::string& configs, const char* timestep,
+                const char* coupling, double speed) {
+  SCOPED_TRACE(fmt::format("{} {} {} {}", drive, configs, timestep, coupling));
+  std::string xml =
+      ShippedModelWithSignals("tsui_rigid.xml", "shaft", configs + Config("coupling", coupling));
+  const std::string shipped = Config("drive", "current_microstep");
+  const size_t at = xml.find("timestep=\"5e-5\""), drive_at = xml.find(shipped);
+  EXPECT_TRUE(at != std::string::npos && drive_at != std::string::npos);
+  if (at == std::string::npos || drive_at == std::string::npos) return {};
+  xml.replace(drive_at, shipped.size(), Config("drive", drive));
+  xml.replace(at, 16, fmt::format("timestep=\"{}\"", timestep));
+  std::string error;
+  const ModelPtr m = LoadModel(xml, &error);
+  EXPECT_TRUE(m) << error;
+  if (!m) return {};
+  const DataPtr d(mj_makeData(m.get()));
+  double sum = 0, sum2 = 0, iq = 0, copper0 = 0;
+  int n = 0;
+  while (d->time < 1.0 - 1e-9) {
+    d->ctrl[0] = speed * std::min(1.0, d->time / 0.3);
+    mj_step(m.get(), d.get());
+    if (d->time < 0.6 - 1e-9) {
+      copper0 = d->sensordata[kEnergyCopper];
+      continue;
+    }
+    const double omega = d->sensordata[kOmega];
+    sum += omega, sum2 += omega * omega;
+    iq += d->sensordata[SignalIndex("current_q")];
+    ++n;
+  }
+  const double mean = sum / n;
+  const TsuiRun run{.ripple = std::sqrt(std::max(0.0, sum2 / n - mean * mean)),
+                    .iq = iq / n,
+                    .copper = d->sensordata[kEnergyCopper] - copper0};
+  std::printf("%s %s %s %s: ripple %.5f rad/s, iq %.5f A, copper 0.6-1 s %.6f J\n", drive,
+              configs.c_str(), timestep, coupling, run.ripple, run.iq, run.copper);
+  return run;
+}
+
 // The averaged PI drive (averaged_current_loop.h) against its switching twin on the Tsui motor
 // (models/tsui_rigid.xml) at 180 r/min with every detent harmonic compensated (T(13)): the
 // rotor's speed ripple, the mean q current in the command's frame and the copper loss, at the
 // model's 50 µs step and sub-stepped at 1 ms. The ripple left by the compensation is small (1.7
 // r/min RMS) and follows the loop's response at 4·Nr·ω, near its bandwidth, so it shows the
-// feedback's lag at each part's own frequency (read at the frame's, it was 18 % high). The target
-// is SPEC §11's 5 % for ripple; measured +1.3 % at 50 µs and +2.5 % at 1 ms.
+// feedback's lag at each part's own frequency (read at the frame's, it was 18 % high) and the
+// transient's own rate (at (R + Kp)/L, without the delay's share, +1.3 % at 50 µs and +2.5 % at
+// 1 ms). SPEC §11's target is 5 %; measured −0.16 % at 50 µs and −0.06 % at 1 ms, so 1 % here.
 TEST(Averaged, PiDriveIsItsLoopsFrequencyResponse) {
   constexpr double kSpeed = 180 * 2 * std::numbers::pi / 60;  // rad/s
-  struct Run {
-    const char* fidelity;
-    const char* timestep;
-    const char* coupling;
-    double ripple = 0, iq = 0, copper = 0;
-  };
-  Run runs[] = {{"switching", "5e-5", "consistent"},
-                {"averaged", "5e-5", "consistent"},
-                {"averaged", "1e-3", "substepped"}};
-  for (Run& run : runs) {
-    SCOPED_TRACE(fmt::format("{} {} {}", run.fidelity, run.timestep, run.coupling));
-    std::string xml =
-        ShippedModelWithSignals("tsui_rigid.xml", "shaft",
-                                Config("fidelity", run.fidelity) + Config("damping", "all") +
-                                    Config("coupling", run.coupling));
-    const size_t at = xml.find("timestep=\"5e-5\"");
-    ASSERT_NE(at, std::string::npos);
-    xml.replace(at, 16, fmt::format("timestep=\"{}\"", run.timestep));
-    std::string error;
-    const ModelPtr m = LoadModel(xml, &error);
-    ASSERT_TRUE(m) << error;
-    const DataPtr d(mj_makeData(m.get()));
-    double sum = 0, sum2 = 0, iq = 0, copper0 = 0;
-    int n = 0;
-    while (d->time < 1.0 - 1e-9) {
-      d->ctrl[0] = kSpeed * std::min(1.0, d->time / 0.3);
-      mj_step(m.get(), d.get());
-      if (d->time < 0.6 - 1e-9) {
-        copper0 = d->sensordata[kEnergyCopper];
-        continue;
-      }
-      const double omega = d->sensordata[kOmega];
-      sum += omega, sum2 += omega * omega;
-      iq += d->sensordata[SignalIndex("current_q")];
-      ++n;
-    }
-    const double mean = sum / n;
-    run.ripple = std::sqrt(std::max(0.0, sum2 / n - mean * mean));  // rad/s
-    run.iq = iq / n;
-    run.copper = d->sensordata[kEnergyCopper] - copper0;
-    std::printf("%s %s %s: ripple %.5f rad/s, iq %.5f A, copper 0.6-1 s %.6f J\n", run.fidelity,
-                run.timestep, run.coupling, run.ripple, run.iq, run.copper);
-  }
-  const Run& reference = runs[0];
+  const std::string damped = Config("damping", "all");
+  const TsuiRun reference = RunTsui("current_microstep", damped + Config("fidelity", "switching"),
+                                    "5e-5", "consistent", kSpeed);
   ASSERT_GT(reference.ripple, 0.1);  // rad/s: there is a ripple to compare
-  for (const Run& run : {runs[1], runs[2]}) {
-    EXPECT_NEAR(run.ripple / reference.ripple, 1.0, 0.05) << run.fidelity << " " << run.timestep;
+  for (const auto& [timestep, coupling] :
+       {std::pair{"5e-5", "consistent"}, std::pair{"1e-3", "substepped"}}) {
+    const TsuiRun run = RunTsui("current_microstep", damped + Config("fidelity", "averaged"),
+                                timestep, coupling, kSpeed);
+    EXPECT_NEAR(run.ripple / reference.ripple, 1.0, 0.01) << timestep;
     // The integrator holds the sampled current on the command: a lagged read left it 0.094 A
     // behind (Ωc·τ·Id), the switching loop's mean is within a few mA of 0.
-    EXPECT_NEAR(run.iq, reference.iq, 0.01) << run.timestep;
-    // The copper loss over 0.4 s: 0.2 % (measured 0.03 % at 50 µs; the PWM is averaged in both).
-    EXPECT_NEAR(run.copper / reference.copper, 1.0, 2e-3) << run.timestep;
+    EXPECT_NEAR(run.iq, reference.iq, 0.01) << timestep;
+    // The copper loss over 0.4 s: 0.2 % (measured 0.05 % at 50 µs; the PWM is averaged in both).
+    EXPECT_NEAR(run.copper / reference.copper, 1.0, 2e-3) << timestep;
+  }
+}
+
+// The averaged servo (T(18)-(19)) and its switching twin, models/tsui_rigid.xml with every
+// harmonic compensated, at 90 r/min (H9's second resonance): the same measures. The position
+// loop runs at its own 4 kHz ticks in both; between them the averaged current loop is the closed
+// form. Measured −1.5 % at 50 µs and −1.1 % sub-stepped at 1 ms; each update's iq* applied at
+// its tick rather than D later, −6.5 %; so 2 % here. The encoder is ideal: S-16's
+// counts, read by the backward difference at 20 kHz and decimated to 4 kHz, beat at speeds whose
+// count rate divides the update rate (120 and 180 r/min on 4 000 counts: up to 14 % more ripple
+// switching), which the averaged estimate, continuous, does not have.
+TEST(Averaged, ServoRunsItsPositionLoopOnTheAveragedCurrentLoop) {
+  constexpr double kSpeed = 90 * 2 * std::numbers::pi / 60;  // rad/s
+  const std::string servo = Config("damping", "all") + Config("encoder_counts", "0");
+  const TsuiRun reference =
+      RunTsui("servo", servo + Config("fidelity", "switching"), "5e-5", "consistent", kSpeed);
+  ASSERT_GT(reference.ripple, 0.1);  // rad/s
+  for (const auto& [timestep, coupling] :
+       {std::pair{"5e-5", "consistent"}, std::pair{"1e-3", "substepped"}}) {
+    const TsuiRun run =
+        RunTsui("servo", servo + Config("fidelity", "averaged"), timestep, coupling, kSpeed);
+    EXPECT_NEAR(run.ripple / reference.ripple, 1.0, 0.02) << timestep;
+    EXPECT_NEAR(run.iq / reference.iq, 1.0, 0.01) << timestep;  // the load's torque, mostly B·ω
+    EXPECT_NEAR(run.copper / reference.copper, 1.0, 2e-3) << timestep;
   }
 }
 
 // Where the bus cuts the PI's request (20 V at 450 r/min, S-13), the averaged drive runs the
-// interrupts' own loop: its mean load angle is within 3 % of the switching twin's (measured
-// 1.5 %; run on the closed form's linear response it is far off).
+// interrupts' own loop: its mean load angle and id are within 0.5 % of the switching twin's
+// (measured +0.04 % and −0.003 %; with the transient at (R + Kp)/L, +1.5 % and −1.1 %; run on the
+// closed form's linear response, far off).
 TEST(Averaged, PiDriveAtTheBusLimitRunsItsInterrupts) {
   constexpr double kSpeed = 450 * 2 * std::numbers::pi / 60;  // rad/s
   double angle[2] = {0, 0}, current_d[2] = {0, 0};
@@ -427,22 +460,22 @@ TEST(Averaged, PiDriveAtTheBusLimitRunsItsInterrupts) {
   }
   // The bus holds id well under the setpoint's 1.9 A: the stage does cut.
   ASSERT_LT(current_d[1], 1.7);
-  EXPECT_NEAR(angle[0] / angle[1], 1.0, 0.03);
-  EXPECT_NEAR(current_d[0] / current_d[1], 1.0, 0.02);
+  EXPECT_NEAR(angle[0] / angle[1], 1.0, 0.005);
+  EXPECT_NEAR(current_d[0] / current_d[1], 1.0, 0.005);
 }
 
 TEST(Averaged, ADriveWithoutAnAveragedFormIsRefused) {
   std::string error;
   const ModelPtr m = LoadModel(
       RotorModel(R"(<plugin name="m1" joint="j1" plugin="mjstepper.stepper" armature="1e-4">)" +
-                 Config("motor", "17hs19_2004s1") + Config("drive", "servo") +
+                 Config("motor", "17hs19_2004s1") + Config("drive", "stmms") +
                  Config("fidelity", "averaged") + "</plugin>"),
       &error);
   EXPECT_FALSE(m);
   EXPECT_NE(error.find("fidelity = \"averaged\""), std::string::npos) << error;
-  EXPECT_NE(error.find("drive servo"), std::string::npos) << error;
-  EXPECT_NE(error.find("current_microstep, voltage_microstep, ideal_current, chopper, spreadcycle, "
-                       "stealthchop have one"),
+  EXPECT_NE(error.find("drive stmms"), std::string::npos) << error;
+  EXPECT_NE(error.find("current_microstep, voltage_microstep, ideal_current, servo, "
+                       "identification, chopper, spreadcycle, stealthchop have one"),
             std::string::npos)
       << error;
 }

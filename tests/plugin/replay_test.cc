@@ -36,7 +36,8 @@ std::string Model(const std::string& actuator, double timestep) {
 
 // The Tsui PI drive (at its interrupts), the averaged SpreadCycle (whose phases' modes are state
 // too), the Tsui drive with the sub-stepped rotor at 1 ms (its speed is state), averaged voltage
-// microstepping, and the averaged SpreadCycle sub-stepped at 1 ms (its velocity crossings).
+// microstepping, the averaged SpreadCycle sub-stepped at 1 ms (its velocity crossings), and the
+// averaged PI drive and servo sub-stepped at 1 ms (the servo's held iq* and the one before it).
 struct Case {
   const char* name;
   const char* actuator;
@@ -81,6 +82,13 @@ INSTANTIATE_TEST_SUITE_P(
              R"(<config key="motor" value="tsui2009"/><config key="damping" value="all"/>)"
              R"(<config key="fidelity" value="averaged"/><config key="input" value="velocity"/>)"
              R"(<config key="coupling" value="substepped"/></plugin>)",
+             1e-3},
+        Case{"SubsteppedAveragedServoAt1ms",
+             R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4">)"
+             R"(<config key="motor" value="tsui2009"/><config key="drive" value="servo"/>)"
+             R"(<config key="damping" value="all"/><config key="fidelity" value="averaged"/>)"
+             R"(<config key="input" value="velocity"/><config key="coupling" value="substepped"/>)"
+             R"(</plugin>)",
              1e-3}),
     [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
 

@@ -85,18 +85,10 @@ struct CurrentMicrostep {
 
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
                   State* s) const {
-    return TickFor(k, in, stage, 1.0, s);
-  }
-  /// A tick whose voltage is held for `fraction` of the period: the integrator moves by that
-  /// fraction of Ki·e (the averaged form's held periods, averaged_current_loop.h).
-  TickOutput TickFor(const DriveConstants& k, const Input& in, const PowerStage& stage,
-                     double fraction, State* s) const {
-    const double park_angle = setpoint.Angle(k, in.command.theta);  // ψ = Nr·θcmd, S-12
-    const PhaseVector park = UnitPhasor(park_angle);
+    const PhaseVector park = UnitPhasor(setpoint.Angle(k, in.command.theta));  // ψ = Nr·θcmd
     const PhaseVector target = setpoint.Dq(k, in.command.theta);
     PhaseVector integral(s->integral_d, s->integral_q);
-    const DqCurrentLoop held{.kp = loop.kp, .ki_per_tick = fraction * loop.ki_per_tick};
-    const BridgeOutput out = held.Update(target, park, in.current, stage, &integral);
+    const BridgeOutput out = loop.Update(target, park, in.current, stage, &integral);
     s->integral_d = integral.real();
     s->integral_q = integral.imag();
     return {.bridge = out, .current_ref = park * target};

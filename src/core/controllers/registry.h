@@ -98,6 +98,24 @@ inline int Microsteps(const Controller& c) {
       c);
 }
 
+/// The damping harmonics a PI loop's setpoint carries (T(13) of `current_microstep`, T(8) of
+/// `identification`; the servo's are in its held iq*): what an averaged loop's closed form
+/// carries term by term (averaged_current_loop.h, at most kAveragedLoopHarmonics).
+inline std::size_t LoopSetpointHarmonics(const Controller& c) {
+  return std::visit(
+      [](const auto& unit) -> std::size_t {
+        if constexpr (requires {
+                        unit.setpoint.damping.harmonics;
+                        unit.loop;
+                      }) {
+          return unit.setpoint.damping.harmonics.size();
+        } else {
+          return 0;
+        }
+      },
+      c);
+}
+
 /// Whether a controller's bridges switch (a chopper: switching.h's SwitchingUnit).
 inline bool IsSwitching(const Controller& c) {
   return std::visit([](const auto& unit) { return SwitchingUnit<std::decay_t<decltype(unit)>>; },
@@ -127,6 +145,17 @@ concept RotatingVoltageUnit = requires(const C& u) {
 template <class C>
 concept CurrentLoopUnit = std::same_as<C, CurrentMicrostep>;
 
+/// A PI current loop in the encoder's frame (the servo and identification, T(18)): its averaged
+/// form is the same continuous closed-loop response in that frame, the setpoint's iq* held
+/// between the position loop's updates (averaged_current_loop.h).
+template <class C>
+concept FieldOrientedUnit = requires(const C& u, const DriveConstants& k, const Sample& in,
+                                     const typename C::State& st) {
+  { u.LoopSetpoint() } -> std::same_as<const MicrostepSetpoint&>;
+  { u.HeldIq(k, in, st) } -> std::same_as<double>;
+  u.loop;
+};
+
 /// An ideal source: no clock, no windings; its averaged form is itself.
 template <class C>
 concept IdealSourceUnit = requires {
@@ -134,10 +163,10 @@ concept IdealSourceUnit = requires {
 };
 
 /// A unit with an averaged form: a chopper (averaged_bridge.h), a SpanUnit, a rotating voltage, a
-/// PI current loop or an ideal source.
+/// PI current loop (in the command's frame or the encoder's) or an ideal source.
 template <class C>
 concept AveragedUnit = SwitchingUnit<C> || SpanUnit<C> || RotatingVoltageUnit<C> ||
-    CurrentLoopUnit<C> || IdealSourceUnit<C>;
+    CurrentLoopUnit<C> || FieldOrientedUnit<C> || IdealSourceUnit<C>;
 
 /// Whether a controller has an averaged form (fidelity = averaged).
 inline bool HasAveragedForm(const Controller& c) {

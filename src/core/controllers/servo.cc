@@ -7,8 +7,6 @@
 namespace mjstepper {
 namespace {
 
-double Sign(double v) { return (v > 0) - (v < 0); }
-
 // The field-oriented current loop at ψ = Nr·θfb with id* = 0, T(18).
 TickOutput FieldOriented(const DriveConstants& k, const DqCurrentLoop& loop, double iq_cmd,
                          const Sample& in, const PowerStage& stage, double* integral_d,
@@ -25,9 +23,15 @@ TickOutput FieldOriented(const DriveConstants& k, const DqCurrentLoop& loop, dou
 }  // namespace
 
 std::vector<const AttributeSpec*> Servo::Attributes() {
-  return {&kAttrPositionPeriod, &kAttrServoKp, &kAttrServoKi,
-          &kAttrServoKv,        &kAttrKp,      &kAttrKi,
-          &kAttrDamping,        &kAttrDampingDetent, &kAttrFrictionCompensation};
+  return {&kAttrPositionPeriod,
+          &kAttrServoKp,
+          &kAttrServoKi,
+          &kAttrServoKv,
+          &kAttrKp,
+          &kAttrKi,
+          &kAttrDamping,
+          &kAttrDampingDetent,
+          &kAttrFrictionCompensation};
 }
 
 Servo Servo::FromAttributes(const AttributeSource& a, const MotorParams& motor,
@@ -50,17 +54,19 @@ Servo Servo::FromAttributes(const AttributeSource& a, const MotorParams& motor,
   return s;
 }
 
+void Servo::Position(const DriveConstants& k, const Input& in, State* s) const {
+  const double x_fb = k.rotor_teeth * in.feedback.theta;            // ψ = Nr·θfb, T(18)
+  const double theta_error = in.command.theta - in.feedback.theta;  // rad
+  const double omega_error = in.command.omega - in.feedback.omega;  // rad/s
+  s->position_integral += theta_error * position_period;
+  const double torque = kv * omega_error + kp * theta_error + ki * s->position_integral +
+                        damping.Torque(x_fb) + friction * Sign(in.command.omega);  // T(19), N·m
+  s->iq_cmd = torque / k.torque_constant;
+}
+
 TickOutput Servo::Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
                        State* s) const {
-  if (in.tick % ticks_per_position == 0) {
-    const double x_fb = k.rotor_teeth * in.feedback.theta;          // ψ = Nr·θfb, T(18)
-    const double theta_error = in.command.theta - in.feedback.theta;  // rad
-    const double omega_error = in.command.omega - in.feedback.omega;  // rad/s
-    s->position_integral += theta_error * position_period;
-    const double torque = kv * omega_error + kp * theta_error + ki * s->position_integral +
-                          damping.Torque(x_fb) + friction * Sign(in.command.omega);  // T(19), N·m
-    s->iq_cmd = torque / k.torque_constant;
-  }
+  if (in.tick % ticks_per_position == 0) Position(k, in, s);
   return FieldOriented(k, loop, s->iq_cmd, in, stage, &s->integral_d, &s->integral_q);
 }
 
@@ -72,7 +78,9 @@ Identification Identification::FromAttributes(const AttributeSource& a, const Mo
                                               const DriveConstants&) {
   return {.friction = a.Real(kAttrFrictionCompensation, motor.static_friction,
                              AttributeSource::Rule::kNonNegative),
-          .damping = HarmonicCompensation::FromAttributes(a, motor),
+          .setpoint = {.hold_current = 0,
+                       .damping = HarmonicCompensation::FromAttributes(a, motor),
+                       .microsteps = 0},
           .loop = DqCurrentLoop::FromAttributes(a)};
 }
 
@@ -81,7 +89,7 @@ TickOutput Identification::Tick(const DriveConstants& k, const Input& in, const 
   // T(8): compensation only, updated every tick.
   const double x_fb = k.rotor_teeth * in.feedback.theta;
   const double iq_cmd =
-      (damping.Torque(x_fb) + friction * Sign(in.feedback.omega)) / k.torque_constant;
+      (setpoint.damping.Torque(x_fb) + friction * Sign(in.feedback.omega)) / k.torque_constant;
   return FieldOriented(k, loop, iq_cmd, in, stage, &s->integral_d, &s->integral_q);
 }
 

@@ -16,6 +16,7 @@
 #define MJSTEPPER_CORE_CONTROLLERS_SERVO_H_
 
 #include "core/controllers/controller.h"
+#include "core/controllers/current_microstep.h"
 #include "core/controllers/dq_current_loop.h"
 #include "core/controllers/harmonic_compensation.h"
 
@@ -33,6 +34,9 @@ inline constexpr AttributeSpec kAttrServoKv{"servo_kv", "real", "0.01", "N·m·s
 inline constexpr AttributeSpec kAttrFrictionCompensation{
     "friction_compensation", "real", "preset Fs (0.029)", "N·m",
     "Fs the servo adds as Fs·sgn(ωcmd) (T(19)) and identification as Fs·sgn(ωest) (T(8))."};
+
+/// sgn(v) of T(8) and T(19): −1, 0 or 1.
+inline double Sign(double v) { return (v > 0) - (v < 0); }
 
 struct Servo {
   static constexpr const char* kName = "servo";
@@ -58,6 +62,9 @@ struct Servo {
     double integral_q = 0;         ///< V, q axis
     double position_integral = 0;  ///< ∫θerr dt, rad·s
     double iq_cmd = 0;             ///< A, held between position updates
+    /// A, the iq* before the last update: the averaged form applies it until the update's
+    /// voltage reaches the winding, D + T/2 later on average (unused when switching).
+    double iq_previous = 0;
   };
   using Input = Sample;
 
@@ -66,6 +73,16 @@ struct Servo {
                               const DriveConstants& k);
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
                   State* s) const;
+  /// The position update of T(19), at the ticks k with k % ticks_per_position = 0: sets the
+  /// held iq*.
+  void Position(const DriveConstants& k, const Input& in, State* s) const;
+  /// For the averaged form (averaged_current_loop.h): the iq* held between updates (A), beside
+  /// a setpoint that is otherwise empty (T(18): id* = 0; the damping is in iq*).
+  double HeldIq(const DriveConstants&, const Input&, const State& s) const { return s.iq_cmd; }
+  const MicrostepSetpoint& LoopSetpoint() const {
+    static const MicrostepSetpoint kNone{.hold_current = 0, .damping = {}, .microsteps = 0};
+    return kNone;
+  }
   /// At rest on its command the servo asks for no torque.
   PhaseVector Rest(const DriveConstants&, const RestInput&, State*) const { return 0; }
   /// The position loop's spring, Kp (T(19)).
@@ -83,7 +100,8 @@ struct Identification {
   static constexpr bool kCountsSlips = false;
 
   double friction = 0.029;  ///< Fs the drive compensates, N·m
-  HarmonicCompensation damping;
+  /// T(8)'s harmonics as a frame setpoint: id* = 0, iq* = Σh Kdh·sin(h·Nr·θfb + φh)/Km.
+  MicrostepSetpoint setpoint{.hold_current = 0, .damping = {}, .microsteps = 0};
   DqCurrentLoop loop;
 
   struct State {
@@ -97,6 +115,12 @@ struct Identification {
                                        const DriveConstants& k);
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
                   State* s) const;
+  /// For the averaged form (averaged_current_loop.h): T(8)'s friction share of iq*, Fs·sgn(ωfb)/Km
+  /// (A), beside the setpoint's harmonics.
+  double HeldIq(const DriveConstants& k, const Input& in, const State&) const {
+    return friction * Sign(in.feedback.omega) / k.torque_constant;
+  }
+  const MicrostepSetpoint& LoopSetpoint() const { return setpoint; }
   PhaseVector Rest(const DriveConstants&, const RestInput&, State*) const { return 0; }
   /// No position loop: nothing holds the rotor.
   double HoldingStiffness(const DriveConstants&, PhaseVector) const { return 0; }

@@ -29,6 +29,12 @@ struct VelocityEstimator {
     *estimate += gain * (raw - *estimate);
     *previous_angle = measured_angle;
   }
+  /// The estimate over `duration` (s) of ticks at a constant speed `omega` (rad/s), where each
+  /// tick's raw difference is ω: e ← ω + (e − ω)·(1 − a) per period, and (1 − a)^{Δ/T} =
+  /// e^{−2π·fc·Δ}. An averaged drive's estimate (SPEC §11), continuous in Δ.
+  void Advance(double omega, double duration, double* estimate) const {
+    *estimate = omega + (*estimate - omega) * std::exp(-kTwoPi * cutoff * duration);
+  }
 };
 
 }  // namespace mjstepper
