@@ -131,8 +131,9 @@ int main(int argc, char** argv) {
                                    R"(<config key="thermal_resistance_housing" value="3.44"/>)"
                                    R"(<config key="heat_capacity_winding" value="30"/>)"
                                    R"(<config key="heat_capacity_housing" value="483"/>)";
-  // "stepper", "stepper_explicit", "stepper1mhz", "chopper", "chopper_heat", "spreadcycle",
-  // "chopper_averaged", "spreadcycle_averaged", "stealthchop", "dcmotor" or "dcmotor_ripple":
+  // "stepper", "stepper_explicit", "stepper1mhz", "stepper_averaged" (the PI drive averaged),
+  // "chopper", "chopper_heat", "spreadcycle", "chopper_averaged", "spreadcycle_averaged",
+  // "stealthchop", "dcmotor" or "dcmotor_ripple":
   // that one alone (for callgrind)
   const std::string only = argc > 2 ? argv[2] : "";
   // "arm6" (models/arm6.xml, six steppers on position trapezoids), "arm6_ideal" (its drives
@@ -163,13 +164,14 @@ int main(int argc, char** argv) {
   // The PI drive with the torque at the step's start (the coupling before issue 20).
   const std::string explicit_coupling = R"(<config key="coupling" value="explicit"/>)";
   if (only == "stepper" || only == "stepper_explicit" || only == "stepper1mhz" ||
-      only == "chopper" || only == "chopper_heat" || only == "spreadcycle" ||
-      only == "chopper_averaged" || only == "spreadcycle_averaged" || only == "stealthchop" ||
-      only == "dcmotor" || only == "dcmotor_ripple") {
+      only == "stepper_averaged" || only == "chopper" || only == "chopper_heat" ||
+      only == "spreadcycle" || only == "chopper_averaged" || only == "spreadcycle_averaged" ||
+      only == "stealthchop" || only == "dcmotor" || only == "dcmotor_ripple") {
     const Stepping s =
         only == "stepper"            ? Load(dir + "tsui_rigid.xml", 10.472)
         : only == "stepper_explicit" ? Load(dir + "tsui_rigid.xml", 10.472, explicit_coupling)
         : only == "stepper1mhz"      ? Load(dir + "tsui_rigid.xml", 10.472, fast)
+        : only == "stepper_averaged" ? Load(dir + "tsui_rigid.xml", 10.472, averaged)
         : only == "chopper"          ? Load(dir + "tsui_rigid.xml", 10.472, chopper)
         : only == "chopper_heat"     ? Load(dir + "tsui_rigid.xml", 10.472, chopper_heat)
         : only == "spreadcycle"      ? Load(dir + "tsui_rigid.xml", 10.472, spreadcycle)
