@@ -25,7 +25,8 @@
 // 1-2 % below. RippleOffsets measures that offset once at load by running the unit's own Switch
 // rules (the same code the switching mode runs) on one phase whose current moves at the constant
 // slopes (v − R·i* − e)/L of a chopper cycle (tens of µs, ≪ L/R), for a grid of targets and
-// voltage drops; the averaged target is the table's plus the offset there.
+// voltage drops, until the cycle has settled (near a zero drop the current drifts for hundreds of
+// cycles first); the averaged target is the table's plus the offset there.
 //
 // What the average leaves out: the ripple itself (its RMS, ΔI/√12, a small part of the copper
 // loss).
@@ -105,9 +106,14 @@ CycleStats SteadyCycle(const C& unit, double vbus, double inductance, double tar
   C::SetTarget(0, target, &state);
   unit.Start(stage, 0.0, &state);
   const PhaseSwitch& sw = state.phase[0];
-  constexpr int kWarmCycles = 4, kMeanCycles = 8, kMaxEvents = 400;
-  double t = 0, x = target;    // s, A
-  double area = 0, from = -1;  // A·s since the first measured cycle's start, at s
+  // Blocks of kBlockCycles after the first kWarmCycles, until two blocks' means agree within
+  // kSettled: near a zero drop the current drifts for hundreds of cycles before it settles (the
+  // back-EMF's push, |drop|/L, against the off-time's share of the cycle).
+  constexpr int kWarmCycles = 4, kBlockCycles = 8, kMaxEvents = 40000;
+  constexpr double kSettled = 1e-6;  // A
+  double t = 0, x = target;          // s, A
+  double area = 0, from = -1;        // A·s since the block's first cycle's start, at s
+  double last_mean = std::numeric_limits<double>::quiet_NaN();  // A, the block before
   int cycles = 0;
   for (int events = 0; events < kMaxEvents; ++events) {
     const double slope = (sw.voltage - drop) / inductance;  // A/s
@@ -149,8 +155,13 @@ CycleStats SteadyCycle(const C& unit, double vbus, double inductance, double tar
       if (cycles == kWarmCycles) {
         from = t;
         area = 0;
-      } else if (cycles == kWarmCycles + kMeanCycles) {
-        return {.mean_offset = area / (t - from) - target, .period = (t - from) / kMeanCycles};
+      } else if (cycles > kWarmCycles && (cycles - kWarmCycles) % kBlockCycles == 0) {
+        const double mean = area / (t - from);
+        const CycleStats stats{.mean_offset = mean - target, .period = (t - from) / kBlockCycles};
+        if (std::abs(mean - last_mean) <= kSettled || events + 64 > kMaxEvents) return stats;
+        last_mean = mean;
+        from = t;
+        area = 0;
       }
     }
   }
@@ -182,12 +193,12 @@ double FastestCycle(const C& unit, double vbus, double inductance, double peak) 
 
 /// CycleMeanOffset on a grid, computed once at load and read by bilinear interpolation: targets
 /// 0..peak (A) and drops −Vbus..Vbus (V). The drop's nodes are fine about 0, where the offset
-/// turns over steeply: a drop above 0 decays the current through the off-time, below the mean, and
-/// a drop below 0 (the back-EMF driving the current up) raises it above its target. On a TMC2209
-/// at 24 V the offset goes from +0.017 A at −0.4 V through −0.005 A at 0 to −0.009 A at +0.1 V,
-/// then falls by 0.006 A per volt. A uniform grid of Vbus/16 read −0.0056 A at 0.08 V for the
-/// chopper's −0.0088 A, and left the phases near a zero crossing 0.003 A short of it
-/// (`Averaged.ThePhasesNearAZeroCrossingCarryTheirChoppersMean`).
+/// turns over: a drop above 0 decays the current through the off-time, below the target, and a
+/// drop below 0 (the back-EMF driving the current up) holds it above, where only the fast decays
+/// pull it down. On a TMC2209 at 24 V the offset is −0.0085 A at +0.01 V, −0.009 A at +0.1 V,
+/// then falls by 0.006 A per volt; +0.0175 A at −0.01 V and +0.019 A at −0.4 V. A uniform grid of
+/// Vbus/16 read −0.0056 A at 0.08 V for the chopper's −0.0088 A, and left the phases near a zero
+/// crossing 0.003 A short of it (`Averaged.ThePhasesNearAZeroCrossingCarryTheirChoppersMean`).
 class RippleOffsets {
  public:
   RippleOffsets() = default;

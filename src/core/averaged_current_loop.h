@@ -1,6 +1,7 @@
 // The PI current loop of T(9)-(11) replaced by its continuous closed-loop response: the averaged
 // fidelity of `current_microstep` (SPEC §11: "the PI loop by its closed-loop response with its
-// delay").
+// delay"), and of `servo` and `identification`, whose loop (T(18)) runs in the encoder's frame
+// ψ = Nr·θfb with id* = 0 and iq* held (drive.cc); below, θcmd stands for the frame's angle.
 //
 // The digital loop samples i at t_k, reads it in the frame ψk = Nr·θcmd(t_k) (rounded to the
 // microstep table), and holds e^{jψk}·(Kp·e[k] + s[k]) over [t_k + D, t_k + D + T]. To the winding

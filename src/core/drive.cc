@@ -915,10 +915,11 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     // its continuous closed-loop response (averaged_current_loop.h) from one position update of
     // T(19) to the next, each at the interrupt it runs on (k % ticks_per_position = 0, the
     // switching form's own instants), so that the position loop keeps its sampling and its
-    // delay; no other interrupt runs. The frame turns with the rotor over the step (the encoder's
-    // counts averaged: their staircase's fundamental is within 3e-4 of the rotor at 4 000 counts
-    // on 50 teeth), S-17's estimate follows its exact course at the step's constant speed, and
-    // identification's friction share Fs·sgn(ωfb) is read at each interval's start.
+    // delay; no other interrupt runs. The frame turns with the rotor over the step, half an
+    // encoder count behind it (the fundamental of S-16's staircase, whose amplitude is within
+    // 3e-4 of the rotor's at 4 000 counts on 50 teeth), S-17's estimate follows its exact course
+    // at the step's constant speed, and identification's friction share Fs·sgn(ωfb) is read at
+    // each step's start.
     [[maybe_unused]] bool field_averaged = false;
     if constexpr (FieldOrientedUnit<C>) {
       if (config_.fidelity == Fidelity::kAveraged) {
