@@ -63,7 +63,7 @@ struct Servo {
     double position_integral = 0;  ///< ∫θerr dt, rad·s
     double iq_cmd = 0;             ///< A, held between position updates
     /// A, the iq* before the last update: the averaged form applies it until the update's
-    /// voltage reaches the winding, D + T/2 later on average (unused when switching).
+    /// voltage reaches the winding, D after its tick (unused when switching).
     double iq_previous = 0;
   };
   using Input = Sample;
