@@ -80,6 +80,28 @@ TEST(Averaged, AtRestTheCurrentIsTheChoppersMeanAndTheAngleTheStaticLoadAngle) {
   }
 }
 
+// Phase b of model `m` held at microstep count `count`, its rotor started at `speed` (rad/s): its
+// mean current and its table entry (A) over [from, to) s.
+struct PhaseMean {
+  double mean = 0, table = 0;
+};
+PhaseMean MeanPhaseB(const ModelPtr& m, double count, double speed, double from, double to) {
+  const DataPtr d(mj_makeData(m.get()));
+  d->ctrl[0] = count;
+  d->qvel[0] = speed;
+  PhaseMean out;
+  int n = 0;
+  while (d->time < to) {
+    mj_step(m.get(), d.get());
+    if (d->time < from) continue;
+    out.mean += d->sensordata[kCurrentB];
+    out.table = d->sensordata[kCurrentRefB];
+    ++n;
+  }
+  out.mean /= n;
+  return out;
+}
+
 // One to three microsteps past a full step, at rest, the phase near its zero crossing holds a
 // small target at a small drop R·i*, where a chopper's mean turns over steeply with the drop
 // (averaged_bridge.h, RippleOffsets). Its mean current equals the switching twin's within 3e-4 A
@@ -93,17 +115,9 @@ TEST(Averaged, ThePhasesNearAZeroCrossingCarryTheirChoppersMean) {
       SCOPED_TRACE(fmt::format("{} microsteps, {}", count, fidelity));
       const ModelPtr m = Rotor("tmc2209", fidelity, 0.05, 1e-5);
       ASSERT_TRUE(m);
-      const DataPtr d(mj_makeData(m.get()));
-      d->ctrl[0] = count;
-      int n = 0;
-      while (d->time < 0.15) {
-        mj_step(m.get(), d.get());
-        if (d->time < 0.1) continue;
-        mean_b[f] += d->sensordata[kCurrentB];
-        target_b = d->sensordata[kCurrentRefB];
-        ++n;
-      }
-      mean_b[f] /= n;
+      const PhaseMean b = MeanPhaseB(m, count, 0.0, 0.1, 0.15);
+      mean_b[f] = b.mean;
+      target_b = b.table;
     }
     std::printf("%d microsteps: table %.5f A, switching mean %.5f A, averaged %.5f A\n", count,
                 target_b, mean_b[1], mean_b[0]);
@@ -132,18 +146,10 @@ TEST(Averaged, APhaseTheBackEmfPushesUpCarriesItsChoppersMean) {
     std::string error;
     const ModelPtr m = LoadModel(xml, &error);
     ASSERT_TRUE(m) << error;
-    const DataPtr d(mj_makeData(m.get()));
-    d->ctrl[0] = 1;     // one microstep past the full step
-    d->qvel[0] = -2.5;  // rad/s
-    int n = 0;
-    while (d->time < 0.006) {
-      mj_step(m.get(), d.get());
-      if (d->time < 0.003) continue;
-      mean_b[f] += d->sensordata[kCurrentB];
-      target_b = d->sensordata[kCurrentRefB];
-      ++n;
-    }
-    mean_b[f] /= n;
+    // One microstep past the full step, the rotor turning backward at 2.5 rad/s.
+    const PhaseMean b = MeanPhaseB(m, 1, -2.5, 0.003, 0.006);
+    mean_b[f] = b.mean;
+    target_b = b.table;
   }
   std::printf("table %.5f A, switching mean %.5f A, averaged %.5f A\n", target_b, mean_b[1],
               mean_b[0]);
