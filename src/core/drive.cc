@@ -634,6 +634,15 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     PhaseVector phasor = s->rotor_phasor();  // at θ0
     WindingKernel kernel;
     std::optional<SpeedKernel> speed;  // shared by the step's kernels: ω is constant over it
+    // A switching bridge's charge since its cycle began (PhaseSwitch::Ripple), A·s.
+    const bool cycle_means = SwitchingUnit<C> && config_.fidelity == Fidelity::kSwitching;
+    auto cycle_charge = [&]([[maybe_unused]] PhaseVector charge) {
+      if constexpr (SwitchingUnit<C>) {
+        if (!cycle_means) return;
+        unit.phase[0].charge += charge.real();
+        unit.phase[1].charge += charge.imag();
+      }
+    };
     auto integrate_to = [&](double t_end) {
       // An interval shorter than eps is round-off between tick times and step times: skipped.
       if (t_end <= t + eps) {
@@ -653,9 +662,12 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
         s->energy_copper += e.copper;
         step_copper += e.copper;
         s->energy_mechanical += e.mechanical;
+        cycle_charge(e.charge);
       } else {
+        const PhaseVector before = current;
         current = IntegrateWindingRk4(motor, current, voltage, theta_at(t), omega, t_end - t,
                                       config_.rk4_step);
+        cycle_charge(0.5 * (before + current) * (t_end - t));  // the trapezoid: a reference path
       }
       t = t_end;
     };
@@ -733,9 +745,14 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     // Phase p's bridge decides again (SwitchReason) at t; its new voltage is held from there.
     auto switch_phase = [&](int p, SwitchReason why) {
       if constexpr (SwitchingUnit<C>) {
-        controller.Switch(stage_, why, p, origin + t, p == 0 ? current.real() : current.imag(),
-                          &unit);
+        const double mode = unit.phase[p].mode, volts = unit.phase[p].voltage;
+        const double i = p == 0 ? current.real() : current.imag();  // A
+        controller.Switch(stage_, why, p, origin + t, i, &unit);
+        PhaseSwitch& sw = unit.phase[p];
         voltage = {unit.phase[0].voltage, unit.phase[1].voltage};
+        if (cycle_means) {
+          sw.NoteSwitch(mode != C::kOn && sw.mode == C::kOn, sw.voltage != volts, origin + t, i);
+        }
       }
     };
     const bool averaged = SwitchingUnit<C> && config_.fidelity == Fidelity::kAveraged;
@@ -1102,6 +1119,12 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     s->apply_time = origin + apply_at;
     s->current_a = current.real();
     s->current_b = current.imag();
+    if constexpr (SwitchingUnit<C>) {
+      if (cycle_means) {  // the torque handed over is the cycles' means' (DriveCoreState)
+        s->mean_offset_a = -unit.phase[0].Ripple(origin + t, h);
+        s->mean_offset_b = -unit.phase[1].Ripple(origin + t, h);
+      }
+    }
     s->voltage_a = voltage.real();
     s->voltage_b = voltage.imag();
     Pack(unit, s->unit.data());
@@ -1160,7 +1183,7 @@ std::pair<double, double> Drive::Torques(PhaseVector current, PhaseVector z,
 
 double Drive::Torque(const DriveCoreState& s, double theta) const {
   const auto [torque_em, torque_detent] =
-      Torques(s.current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta),
+      Torques(s.handed_current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta),
               TorqueConstantAt(s.winding_temperature));
   return torque_em + torque_detent;
 }
@@ -1171,7 +1194,8 @@ Drive::StoredMotor Drive::ReadStored(const double* values, double theta) const {
   return {
       .rotor = RotorPhasor(field(offsetof(S, started)) != 0, field(offsetof(S, theta)),
                            {field(offsetof(S, rotor_cos)), field(offsetof(S, rotor_sin))}, theta),
-      .current = {field(offsetof(S, current_a)), field(offsetof(S, current_b))},
+      .current = {field(offsetof(S, current_a)) + field(offsetof(S, mean_offset_a)),
+                  field(offsetof(S, current_b)) + field(offsetof(S, mean_offset_b))},
       // Km at the step's starting winding temperature, as over the step (Advance).
       .torque_constant = thermal_ ? TorqueConstantAt(field(offsetof(S, winding_temperature)))
                                   : constants_.torque_constant};
@@ -1196,7 +1220,7 @@ std::pair<double, double> Drive::StoredTorqueAndStiffness(const double* values,
 
 std::pair<double, double> Drive::TorqueAndStiffness(const DriveCoreState& s, double theta) const {
   const StoredMotor m{.rotor = RotorPhasor(s.started != 0, s.theta, s.rotor_phasor(), theta),
-                      .current = s.current(),
+                      .current = s.handed_current(),
                       .torque_constant = thermal_ ? TorqueConstantAt(s.winding_temperature)
                                                   : constants_.torque_constant};
   const auto [torque_em, torque_detent] = Torques(m.current, m.rotor, m.torque_constant);
@@ -1235,7 +1259,7 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
   out.theta_cmd = s.theta_cmd;
   out.omega_cmd = s.omega_cmd;
   std::tie(out.torque_em, out.torque_detent) =
-      Torques(s.current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta),
+      Torques(s.handed_current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta),
               TorqueConstantAt(s.winding_temperature));
   out.torque_total = out.torque_em + out.torque_detent;
   out.load_angle = motor.rotor_teeth * (s.theta_cmd - theta);  // S-12

@@ -219,8 +219,19 @@ struct DriveCoreState {
   double coolstep_count = 0;       ///< readings above the upper band since the last fall
   double winding_temperature = 0;  ///< T_w, °C (thermal.h); kReferenceTemperature without heat
   double housing_temperature = 0;  ///< T_h, °C
+  // A switching chopper's (fidelity = switching) phase currents less their ripple, the last whole
+  // cycle's at the same time into the cycle (PhaseSwitch::Ripple), less the currents now, A; 0
+  // for every other drive. The torque handed to the simulator is the currents' without their
+  // ripple (handed_current): one sample per step of the 20-40 kHz ripple would fold it down into
+  // the rotor (SPEC §11).
+  double mean_offset_a = 0;
+  double mean_offset_b = 0;
 
   PhaseVector current() const { return {current_a, current_b}; }
+  /// The currents whose torque the simulator is handed (S-4), A.
+  PhaseVector handed_current() const {
+    return {current_a + mean_offset_a, current_b + mean_offset_b};
+  }
   PhaseVector rotor_phasor() const { return {rotor_cos, rotor_sin}; }
   void set_rotor_phasor(PhaseVector z) {
     rotor_cos = z.real();

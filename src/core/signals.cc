@@ -23,7 +23,10 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
       {"current_ref_b", "A", "the same for phase B", &S::current_ref_b},
       {"theta_cmd", "rad", "commanded rotor angle θcmd (θd of the motion profile)", &S::theta_cmd},
       {"omega_cmd", "rad/s", "commanded rotor speed", &S::omega_cmd},
-      {"torque_em", "N·m", "electromagnetic torque τm (S-4), with Km(T_w) under `heat`",
+      {"torque_em", "N·m",
+       "electromagnetic torque τm (S-4), with Km(T_w) under `heat`; a switching chopper's from "
+       "its currents less their ripple where the step does not resolve the chopper's cycle (a "
+       "step over half a cycle: the ripple of the last cycle at the same time into it)",
        &S::torque_em},
       {"torque_detent", "N·m", "detent torque τdet (S-5)", &S::torque_detent},
       {"torque_total", "N·m",

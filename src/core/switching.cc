@@ -18,6 +18,55 @@ double PhaseSwitch::LevelAt(double t) const {
   return level + level_slope * std::clamp(t - armed_from, 0.0, span);
 }
 
+void PhaseSwitch::NoteSwitch(bool cycle_starts, bool voltage_changed, double t, double current) {
+  if (target == 0) {
+    cycle_open = 0;
+    last_points = 0;
+    return;
+  }
+  const int n = static_cast<int>(points);
+  if (cycle_starts) {
+    last_points = 0;
+    if (cycle_open != 0 && t > cycle_from && n >= 1 && n <= kCyclePoints) {
+      for (int k = 0; k < n; ++k) {
+        last_at[k] = at[k];
+        last_current_at[k] = current_at[k];
+      }
+      last_at[n] = t - cycle_from;
+      last_current_at[n] = current;
+      last_points = n + 1;
+      last_mean = charge / (t - cycle_from);
+    }
+    cycle_open = 1;
+    cycle_from = t;
+    charge = 0;
+    points = 1;
+    at[0] = 0;
+    current_at[0] = current;
+    return;
+  }
+  if (cycle_open == 0 || !voltage_changed) return;
+  if (n < kCyclePoints) {
+    at[n] = t - cycle_from;
+    current_at[n] = current;
+  }
+  points = n + 1;  // past kCyclePoints: the cycle is not kept (NoteSwitch at its end)
+}
+
+double PhaseSwitch::Ripple(double t, double step) const {
+  const int n = static_cast<int>(last_points);
+  if (cycle_open == 0 || n < 2) return 0;
+  const double length = last_at[n - 1];  // s
+  const double into = t - cycle_from;    // s
+  if (!(length < 2 * step) || !(into >= 0) || into > kStaleCycles * length) return 0;
+  if (into >= length) return last_current_at[n - 1] - last_mean;
+  int k = 1;
+  while (k < n - 1 && last_at[k] <= into) ++k;  // last_at[k − 1] <= into < last_at[k]
+  const double span = last_at[k] - last_at[k - 1];
+  const double f = span > 0 ? (into - last_at[k - 1]) / span : 0.0;
+  return last_current_at[k - 1] + f * (last_current_at[k] - last_current_at[k - 1]) - last_mean;
+}
+
 void IdleBridge(double mode, double t, double current, double vbus, PhaseSwitch* sw) {
   sw->mode = mode;
   sw->mode_start = t;

@@ -47,11 +47,44 @@ struct PhaseSwitch {
   double armed_from = 0;   ///< s: the comparator is blind before this time (blank time)
   double mode_start = 0;   ///< s, when `mode` began (for the unit's rules)
   double aux = 0;          ///< the unit's own value (e.g. SpreadCycle's hysteresis, A)
+  // The ripple of the chopper's last whole cycle (Ripple), kept by the drive: each cycle's
+  // current at its start and at each change of the bridge's voltage, between which it is nearly
+  // linear (an exponential of time constant L/R, milliseconds, over microseconds).
+  static constexpr int kCyclePoints = 8;  ///< the most kept per cycle (SpreadCycle makes 4)
+  double cycle_open = 0;                  ///< 1 while the ongoing cycle is recorded
+  double cycle_from = 0;                  ///< s, the ongoing cycle's start (its on phase's)
+  double charge = 0;                      ///< A·s, ∫i dt since cycle_from
+  double points = 0;                      ///< how many of `at`, `current_at` the cycle has
+  double at[kCyclePoints] = {};           ///< s from cycle_from
+  double current_at[kCyclePoints] = {};   ///< A
+  double last_points = 0;                 ///< the last whole cycle's points, its end included;
+  double last_at[kCyclePoints + 1] = {};  ///< 0: none (no whole cycle yet, or too many)
+  double last_current_at[kCyclePoints + 1] = {};
+  double last_mean = 0;  ///< A, the last whole cycle's mean current
 
   /// The comparator level at time t (s): level + slope·(clamp(t, armed_from, level_stop) −
   /// armed_from).
   double LevelAt(double t) const;
+
+  /// After the unit decided the bridge at time t (s) with the phase current `current` (A):
+  /// `cycle_starts` when an on phase began after another phase of the cycle, which closes a
+  /// whole cycle; `voltage_changed` records a point of the ongoing one. A zero target (an idle
+  /// bridge) ends the record until the next cycle.
+  void NoteSwitch(bool cycle_starts, bool voltage_changed, double t, double current);
+
+  /// The ripple at time t (s) that a simulation step of `step` (s) would fold: the last whole
+  /// cycle's current at the same time into its cycle, less that cycle's mean, A. The phase
+  /// current less it is the cycle's mean without its lag: a steady cycle repeats, so at any
+  /// instant the current less the ripple is the mean. Past the last cycle's length, its end's.
+  /// 0 when the step resolves the cycle (its length >= 2·step: one sample per half cycle or
+  /// more), before a whole cycle is recorded, and once the ongoing one has lasted kStaleCycles
+  /// of it (the bridge no longer chops: held at the bus, or idle).
+  double Ripple(double t, double step) const;
 };
+
+/// How many of its last whole cycle's lengths an ongoing cycle may last and still be taken to
+/// repeat it (PhaseSwitch::Ripple).
+inline constexpr double kStaleCycles = 1.25;
 static_assert(std::is_trivially_copyable_v<PhaseSwitch> &&
               sizeof(PhaseSwitch) % sizeof(double) == 0);
 

@@ -91,7 +91,8 @@ PhaseVector AdvanceInterval(const MotorParams& p, const WindingKernel& k, PhaseV
   const PhaseVector current = A + B * k.rotation + C * k.decay;
   if (energy == nullptr) return current;
   const double h = k.h;
-  energy->input = (std::conj(voltage) * (A * h + B * k.int_jw + C * k.int_a)).real();
+  energy->charge = A * h + B * k.int_jw + C * k.int_a;  // ∫i dt
+  energy->input = (std::conj(voltage) * energy->charge).real();
   const double norm_integral = std::norm(A) * h + std::norm(B) * h + std::norm(C) * k.int_2a +
                                2 * (A * std::conj(B) * std::conj(k.int_jw)).real() +
                                2 * (A * std::conj(C)).real() * k.int_a +

@@ -34,10 +34,12 @@ PhaseVector IntegralOfExp(PhaseVector s, double h, PhaseVector exp_sh, InverseOf
 }
 
 /// Energies over one interval, J. Input va·ia + vb·ib, copper R·|i|², mechanical τm·ω (S-8).
+/// AdvanceInterval also gives the charge ∫i dt (A·s, each phase), the integral the input's is.
 struct IntervalEnergy {
   double input = 0;
   double copper = 0;
   double mechanical = 0;
+  PhaseVector charge;  ///< ∫i dt, A·s (AdvanceInterval only)
 };
 
 /// What an interval's exact solution needs that depends only on its length h: e^{−ah} and the

@@ -182,7 +182,7 @@ TEST(Drive, ClockStaysOnAccumulatedStepTimes) {
     EXPECT_EQ(Drive::NextTickIndex(s), steps * ticks_per_step);
     EXPECT_NEAR(drive.NextTickTime(s), t, 4 * std::numeric_limits<double>::epsilon() * t);
     if (ticks_per_step == 1) {
-      EXPECT_EQ(drive.NextTickTime(s), t);         // bit for bit
+      EXPECT_EQ(drive.NextTickTime(s), t);                          // bit for bit
       EXPECT_GT(std::abs(Drive::NextTickIndex(s) * h - t), 1e-12);  // while k·T has drifted
     }
   }
@@ -310,8 +310,7 @@ TEST(Drive, BridgesClampAndIntegratorDoesNotWindUp) {
 // bridge saturation on the way. The energies are integrated in closed form per interval, so the
 // mismatch is round-off; H6 asks < 1e-4 of the input energy, asserted with that bound.
 TEST(Drive, H6_PowerBalanceOverARun) {
-  for (const Controller& kind :
-       {kVoltage, kCurrent, kServo}) {
+  for (const Controller& kind : {kVoltage, kCurrent, kServo}) {
     const Drive drive(TsuiConfig(kind, InputMode::kVelocity));
     DriveState s = drive.Rest(0.0, 0.0, 0.0);
     const PhaseVector i0 = s.current();
@@ -332,8 +331,7 @@ TEST(Drive, H6_PowerBalanceOverARun) {
 // H8: currents against a reference that runs the same drive with RK4 at 1 µs instead of the exact
 // solution, rotor at 1200 r/min, for each drive: error < 0.1 % of the 3 A rated current.
 TEST(Drive, H8_CurrentsMatchRk4Reference) {
-  for (const Controller& kind :
-       {kVoltage, kCurrent, kServo}) {
+  for (const Controller& kind : {kVoltage, kCurrent, kServo}) {
     DriveConfig exact_config = TsuiConfig(kind, InputMode::kVelocity);
     DriveConfig reference_config = exact_config;
     reference_config.solver = WindingSolver::kRk4;
@@ -393,10 +391,11 @@ TEST(Drive, LostStepsCountWholeElectricalCycles) {
       return t < 0.3 ? -3 * cycle * t / 0.3 : -3 * cycle + cycle * (t - 0.3) / 0.1;
     };
     std::vector<double> lost;
-    RunPrescribed(drive, &s, 0.4, 1e-3, theta, [&](double) { return 2 * cycle; },
-                  [&](double, const DriveState& st) {
-                    lost.push_back(drive.Signals(st, st.theta).lost_steps);
-                  });
+    RunPrescribed(
+        drive, &s, 0.4, 1e-3, theta, [&](double) { return 2 * cycle; },
+        [&](double, const DriveState& st) {
+          lost.push_back(drive.Signals(st, st.theta).lost_steps);
+        });
     EXPECT_EQ(lost[299], 12.0);
     EXPECT_EQ(lost.back(), 8.0);
     // Each change is one cycle (4 full steps), never back and forth: 3 + 1 changes in all.
@@ -494,7 +493,7 @@ TEST(Drive, MicrostepsQuantizeTheCommandedCurrentVector) {
 TEST(Drive, StateRoundTripsThroughDoubles) {
   const Drive drive(TsuiConfig(kCurrent, InputMode::kPosition));
   DriveState s = drive.Rest(0.1, 0.2, 0.3);
-  EXPECT_EQ(drive.layout().total(), 37 + 2);  // core + the PI integrators; no profile
+  EXPECT_EQ(drive.layout().total(), 39 + 2);  // core + the PI integrators; no profile
   std::vector<double> buffer(drive.layout().total());
   drive.Store(s, buffer.data());
   const DriveState back = drive.Load(buffer.data());

@@ -113,11 +113,13 @@ TEST(AveragedPrinter, NoRotorOscillationTheReferenceLacks) {
       "rotor speed RMS after the move: reference %.5f, switching at 5e-5 s %.5f, averaged at "
       "5e-5 s %.5f rad/s\n",
       reference, switching, averaged);
-  // The averaged rotor is at most as restless as the reference's (whose residue is the chopper's
-  // own torque ripple; measured 0.0011 against 0.0026 rad/s), where the switching drive at the
-  // printer's step is 26 times it.
+  // Each rotor at the printer's step is at most as restless as the reference's, whose residue
+  // is the chopper's own torque ripple, resolved at 10 µs (measured 0.0026 rad/s; averaged
+  // 0.0012, switching 0.0016). The switching drive folded that ripple into its one torque
+  // sample per step, and its rotor rang on at 26 times the reference's (0.0675), until the
+  // torque handed over was the currents' less their ripple (PhaseSwitch::Ripple).
   EXPECT_LE(averaged, reference);
-  EXPECT_GT(switching, 10 * reference);  // the defect the averaged drive removes
+  EXPECT_LE(switching, reference);
 }
 
 }  // namespace
