@@ -27,7 +27,8 @@ void PhaseSwitch::NoteSwitch(bool cycle_starts, bool voltage_changed, double t, 
   const int n = static_cast<int>(points);
   if (cycle_starts) {
     last_points = 0;
-    if (cycle_open != 0 && t > cycle_from && n >= 1 && n <= kCyclePoints) {
+    if (cycle_open != 0 && target == cycle_target && t > cycle_from && n >= 1 &&
+        n <= kCyclePoints) {
       for (int k = 0; k < n; ++k) {
         last_at[k] = at[k];
         last_current_at[k] = current_at[k];
@@ -38,6 +39,7 @@ void PhaseSwitch::NoteSwitch(bool cycle_starts, bool voltage_changed, double t, 
       last_mean = charge / (t - cycle_from);
     }
     cycle_open = 1;
+    cycle_target = target;
     cycle_from = t;
     charge = 0;
     points = 1;
@@ -58,7 +60,10 @@ double PhaseSwitch::Ripple(double t, double step) const {
   if (cycle_open == 0 || n < 2) return 0;
   const double length = last_at[n - 1];  // s
   const double into = t - cycle_from;    // s
-  if (!(length < 2 * step) || !(into >= 0) || into > kStaleCycles * length) return 0;
+  if (!(length < 2 * step) || !(into >= 0) || into > kStaleCycles * length ||
+      target != cycle_target) {
+    return 0;
+  }
   if (into >= length) return last_current_at[n - 1] - last_mean;
   int k = 1;
   while (k < n - 1 && last_at[k] <= into) ++k;  // last_at[k − 1] <= into < last_at[k]

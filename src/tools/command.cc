@@ -54,10 +54,10 @@ void PrintDriverDetails(const DriveConfig& c) {
           if (const double f = SwitchingCycle(c); f > 0) {  // Hz
             fmt::print(
                 "    chopper: fastest steady cycle {:.1f} kHz (its own rules, a tenth to all of "
-                "the peak, drop within ±Vbus/2); a step above 1/(2·f) = {:.3g} s folds it into "
-                "the torque each step samples, so a stop where both phases chop can ring on "
-                "(docs/coupling.md, \"The CoreXY after a move\"); fidelity = averaged folds "
-                "nothing\n",
+                "the peak, drop within ±Vbus/2); at a step above 1/(2·f) = {:.3g} s the torque "
+                "handed to MuJoCo is the currents' less their ripple, the last cycle's at the "
+                "same time into it, which one sample per step would fold into the rotor "
+                "(docs/coupling.md, \"The CoreXY after a move\")\n",
                 f / 1e3, RoundDown3(0.5 / f));
           }
         }
@@ -175,10 +175,7 @@ int Info(const std::string& path) {
     fmt::print("  {}: {}\n", verdict.refuse() ? "warning" : "note",
                verdict.Message("the model", "\n    "));
   }
-  // The switching choppers' cycles, which no mode shows (SPEC §11; issue 30, item 4).
-  for (const std::string& note : {FoldNote(sm), SubstepNote(sm)}) {
-    if (!note.empty()) fmt::print("  note: {}\n", note);
-  }
+  if (const std::string note = SubstepNote(sm); !note.empty()) fmt::print("  note: {}\n", note);
   return 0;  // warnings inform; they do not fail the command
 }
 

@@ -104,9 +104,8 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     }
     fmt::print(progress, "warning: {}\n", message);
   }
-  for (const std::string& note : {FoldNote(sm), SubstepNote(sm)}) {
-    if (!note.empty()) fmt::print(progress, "note: {}: {}\n", options.model, note);
-  }
+  if (const std::string note = SubstepNote(sm); !note.empty())
+    fmt::print(progress, "note: {}: {}\n", options.model, note);
   DataPtr data(mj_makeData(m));
   mjData* d = data.get();
   if (key >= 0) {

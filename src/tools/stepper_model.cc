@@ -288,19 +288,6 @@ double SwitchingCycle(const DriveConfig& c) {
       c.controller);
 }
 
-std::string FoldNote(const StepperModel& sm) {
-  double fastest = 0;  // Hz
-  for (const StepperActuator& s : sm.steppers)
-    fastest = std::max(fastest, SwitchingCycle(s.config));
-  const double h = sm.model->opt.timestep;  // s
-  if (!(fastest > 0 && h > 0.5 / fastest)) return "";
-  return fmt::format(
-      "timestep {:g} s folds the switching choppers' cycles (up to {:.1f} kHz), which a step of "
-      "at most {:.3g} s resolves: a stop where both phases chop leaves a rotor oscillation the "
-      "fine reference lacks; fidelity = averaged folds nothing",
-      h, fastest / 1e3, RoundDown3(0.5 / fastest));
-}
-
 std::string SubstepNote(const StepperModel& sm) {
   const double h = sm.model->opt.timestep;  // s
   const bool substepped =

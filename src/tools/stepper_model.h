@@ -119,11 +119,6 @@ TimestepVerdict CheckTimestep(const StepperModel& sm, int key = -1);
 /// for fidelity = averaged.
 double SwitchingCycle(const DriveConfig& c);
 
-/// "" or a note that the model's timestep folds its switching choppers' cycles (h > 1/(2·f), the
-/// fastest of them), with the step that does not: one torque sample per step folds the cycle
-/// down, and a stop where both phases chop rings on (docs/coupling.md; issue 30, item 4).
-std::string FoldNote(const StepperModel& sm);
-
 /// "" or a note that the model's timestep is above kSubsteppedMeasuredStep (core/substep.h) while
 /// a stepper is sub-stepped: a step at which the coupling's fidelity is not measured.
 std::string SubstepNote(const StepperModel& sm);

@@ -181,6 +181,50 @@ TEST(SpreadCycle, SwitchingIsIndependentOfTheInterruptPeriodAndTheStep) {
   EXPECT_GT(std::abs(currents[0] - 2.0), 1e-4);  // it chops
 }
 
+// Where the step does not resolve the chopper's cycle, the currents handed over for the torque
+// are the switching currents less their ripple (PhaseSwitch::Ripple): held half a full step off
+// the table's axes, both phases chop, and sampled at the end of each 50 µs step the instantaneous
+// current scatters over the ripple (a 24 kHz cycle folded by 20 kHz sampling) while the handed
+// one stays on the cycle's mean. The mean is the time average of a 1 µs run's exact charge, and
+// at 1 µs nothing is taken out.
+TEST(SpreadCycle, HandedCurrentIsTheCyclesMeanWhereTheStepWouldFoldIt) {
+  const SpreadCycle u = Unit({{"run_current", "1.41421356237"}});
+  const Drive drive(Config(u));
+  const double theta = std::numbers::pi / 4 / 50;  // rad: half a full step, both phases at 0.71·I
+  auto run = [&](double h, double settle, double span, std::vector<double>* now,
+                 std::vector<double>* handed, double* charge_mean) {
+    DriveState s = drive.Rest(0.0, theta, 0.0);
+    const long settled = std::lround(settle / h), n = settled + std::lround(span / h);
+    double charge = 0;  // A·s over the span, trapezoid of the 1 µs samples
+    for (long k = 0; k < n; ++k) {
+      const double before = s.current_a;
+      ASSERT_EQ(drive.Advance(&s, k * h, (k + 1) * h, theta, 0.0), AdvanceStatus::kOk);
+      if (k < settled) continue;
+      charge += 0.5 * (before + s.current_a) * h;
+      now->push_back(s.current_a);
+      handed->push_back(s.handed_current().real());
+    }
+    *charge_mean = charge / span;
+  };
+  auto spread = [](const std::vector<double>& x, double about) {
+    double sum = 0;
+    for (double v : x) sum += (v - about) * (v - about);
+    return std::sqrt(sum / x.size());
+  };
+  std::vector<double> fine_now, fine_handed, now, handed;
+  double mean = 0, unused = 0;
+  run(1e-6, 5e-3, 20e-3, &fine_now, &fine_handed, &mean);
+  run(50e-6, 5e-3, 20e-3, &now, &handed, &unused);
+  const double scatter = spread(now, mean), held = spread(handed, mean);  // A, RMS about the mean
+  std::printf(
+      "phase a's mean %.5f A; at 50 µs the current scatters %.5f A RMS about it, the "
+      "handed one %.6f A\n",
+      mean, scatter, held);
+  EXPECT_GT(scatter, 0.005);         // A: the ripple the step would fold
+  EXPECT_LT(held, scatter / 100);    // measured 1/2400: the linear pieces. error
+  EXPECT_EQ(fine_handed, fine_now);  // at 1 µs the step resolves the cycle
+}
+
 TEST(SpreadCycle, FastDecayPhaseFollowsTheTableAtSpeedWhereSlowDecayCannot) {
   // At 300 r/min (Ω = 1571 rad/s electrical) the back-EMF (Km·ω = 9.4 V) holds the current up
   // where the table falls: the A4988-class chopper in slow decay only lags it by amperes, while
