@@ -178,7 +178,9 @@ inline constexpr std::pair<const char*, size_t> kCoreFields[] = {
     MJSTEPPER_FIELD(current_scale),
     MJSTEPPER_FIELD(coolstep_count),
     MJSTEPPER_FIELD(winding_temperature),
-    MJSTEPPER_FIELD(housing_temperature)};
+    MJSTEPPER_FIELD(housing_temperature),
+    MJSTEPPER_FIELD(mean_offset_a),
+    MJSTEPPER_FIELD(mean_offset_b)};
 #undef MJSTEPPER_FIELD
 static_assert(std::size(kCoreFields) == sizeof(DriveCoreState) / sizeof(double));
 
