@@ -11,6 +11,13 @@ constexpr double kNever = std::numeric_limits<double>::infinity();
 
 double Component(PhaseVector z, int phase) { return phase == 0 ? z.real() : z.imag(); }
 
+// A count of points stored as a double (the simulator's state, which may hold anything): itself
+// when a whole number in [0, most], else -1.
+int PointCount(double stored, int most) {
+  return stored >= 0 && stored <= most && stored == std::floor(stored) ? static_cast<int>(stored)
+                                                                       : -1;
+}
+
 }  // namespace
 
 double PhaseSwitch::LevelAt(double t) const {
@@ -24,7 +31,7 @@ void PhaseSwitch::NoteSwitch(bool cycle_starts, bool voltage_changed, double t, 
     last_points = 0;
     return;
   }
-  const int n = static_cast<int>(points);
+  const int n = PointCount(points, kCyclePoints + 1);  // kCyclePoints + 1: too many to keep
   if (cycle_starts) {
     last_points = 0;
     if (cycle_open != 0 && target == cycle_target && t > cycle_from && n >= 1 &&
@@ -48,15 +55,17 @@ void PhaseSwitch::NoteSwitch(bool cycle_starts, bool voltage_changed, double t, 
     return;
   }
   if (cycle_open == 0 || !voltage_changed) return;
-  if (n < kCyclePoints) {
+  if (n >= 0 && n < kCyclePoints) {
     at[n] = t - cycle_from;
     current_at[n] = current;
   }
-  points = n + 1;  // past kCyclePoints: the cycle is not kept (NoteSwitch at its end)
+  // Past kCyclePoints (or a count the state made up) the cycle is not kept (NoteSwitch at its
+  // end).
+  points = n >= 0 && n < kCyclePoints ? n + 1 : kCyclePoints + 1;
 }
 
 double PhaseSwitch::Ripple(double t, double step) const {
-  const int n = static_cast<int>(last_points);
+  const int n = PointCount(last_points, kCyclePoints + 1);
   if (cycle_open == 0 || n < 2) return 0;
   const double length = last_at[n - 1];  // s
   const double into = t - cycle_from;    // s
@@ -64,12 +73,17 @@ double PhaseSwitch::Ripple(double t, double step) const {
       target != cycle_target) {
     return 0;
   }
-  if (into >= length) return last_current_at[n - 1] - last_mean;
+  if (into >= length) {
+    const double ripple = last_current_at[n - 1] - last_mean;
+    return std::isfinite(ripple) ? ripple : 0.0;
+  }
   int k = 1;
   while (k < n - 1 && last_at[k] <= into) ++k;  // last_at[k − 1] <= into < last_at[k]
   const double span = last_at[k] - last_at[k - 1];
   const double f = span > 0 ? (into - last_at[k - 1]) / span : 0.0;
-  return last_current_at[k - 1] + f * (last_current_at[k] - last_current_at[k - 1]) - last_mean;
+  const double ripple =
+      last_current_at[k - 1] + f * (last_current_at[k] - last_current_at[k - 1]) - last_mean;
+  return std::isfinite(ripple) ? ripple : 0.0;  // (a state the simulator was handed)
 }
 
 void IdleBridge(double mode, double t, double current, double vbus, PhaseSwitch* sw) {
