@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <numbers>
 #include <optional>
+#include <stdexcept>
 
 #include "core/averaged_current_loop.h"
 #include "core/presets.h"
@@ -94,6 +96,14 @@ constexpr AttributeSpec kAttrSpeedFeedback{
     "speed_feedback", "name", "`estimate` (Tsui's drives), `exact` (`stmms`, `foc`)", "—",
     "ωfb handed to the controller: `estimate` is S-17; `exact` is the rotor's true speed (the "
     "ideal sensor of Kim's simulations)."};
+constexpr AttributeSpec kAttrStepTimes{
+    "step_times", "file", "none", "—",
+    "With `input` = `steps`: a list of STEP/DIR pulse times, one per line (a time in s, then "
+    "optionally the direction +1 or -1; the format of `steps(FILE)`, read at load), counted on "
+    "from the whole microstep the drive rests at. Each pulse moves the count at its own time, "
+    "whatever the timestep, as a chip sees it; ctrl is then unused. Without it, ctrl is the "
+    "count at each step's end and a step's pulses are spread evenly over it (up to half a step "
+    "from their own times)."};
 constexpr AttributeSpec kAttrProfile{
     "profile", "name", "`none`", "—",
     "The drive's own ramp generator: `none` (ctrl is the command), `trapezoid` or `scurve` "
@@ -217,6 +227,7 @@ const std::vector<const AttributeSpec*>& DriveAttributes() {
   static const std::vector<const AttributeSpec*> list = {&kAttrMotor,
                                                          &kAttrDrive,
                                                          &kAttrInput,
+                                                         &kAttrStepTimes,
                                                          &kAttrRotorTeeth,
                                                          &kAttrResistance,
                                                          &kAttrInductance,
@@ -344,6 +355,16 @@ DriveConfig Parse(const AttributeSource& a) {
   c.input = input == "velocity" ? InputMode::kVelocity
             : input == "steps"  ? InputMode::kSteps
                                 : InputMode::kPosition;
+  if (const auto path = a.Raw(kAttrStepTimes)) {
+    if (c.input != InputMode::kSteps) {
+      ThrowBad(kAttrStepTimes, *path, "needs input = steps (STEP/DIR pulses)");
+    }
+    try {
+      c.step_times = std::make_shared<const StepTimes>(StepTimes::Read(*path));
+    } catch (const std::invalid_argument& e) {
+      ThrowBad(kAttrStepTimes, *path, e.what());
+    }
+  }
   // A driver chip (driver_chip.h) picks the drive and bounds the supply.
   const DriverChip* chip = FindDriver(a);
   c.bus_voltage = a.Real(kAttrBusVoltage, chip != nullptr ? 24.0 : c.bus_voltage, Rule::kPositive);

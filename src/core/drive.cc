@@ -225,9 +225,12 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   s.set_rotor_phasor(UnitPhasor(constants_.rotor_teeth * theta));
   const bool holds_command =
       config_.input == InputMode::kPosition && config_.profile.kind == ProfileKind::kNone;
-  s.theta_cmd = config_.input == InputMode::kSteps ? command * step_angle_
-                : holds_command                    ? command
-                                                   : theta;
+  // (A list of pulse times, not ctrl, moves a STEP/DIR count: it counts on from the rotor's own
+  // microstep.)
+  s.theta_cmd = config_.step_times                   ? std::round(theta / step_angle_) * step_angle_
+                : config_.input == InputMode::kSteps ? command * step_angle_
+                : holds_command                      ? command
+                                                     : theta;
   const PhaseVector current = std::visit(
       [&](const auto& unit) {
         using C = std::decay_t<decltype(unit)>;
@@ -489,17 +492,31 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     config_.profile.Update(&plan, t0, t1, command);
   }
   const double theta_cmd0 = s->theta_cmd;
-  // STEP/DIR: the count's angle, reached at the step's end along a line (pulses spread evenly).
   const bool steps = config_.input == InputMode::kSteps;
-  const double target = steps ? command * step_angle_ : command;  // rad
+  // STEP/DIR from a list of pulse times (DriveConfig::step_times): the count is the list's at
+  // each instant, counted on from the whole microstep θcmd rests at; every pulse is an edge.
+  const StepTimes* list = steps ? config_.step_times.get() : nullptr;
+  const double listed_from = list != nullptr ? std::round(theta_cmd0 / step_angle_) : 0.0;
+  const double listed_base = list != nullptr ? list->Count(t0) : 0.0;
+  auto listed_at = [&](double t_abs) {  // rad
+    return (listed_from + list->Count(t_abs) - listed_base) * step_angle_;
+  };
+  // STEP/DIR through ctrl: the count's angle, reached at the step's end along a line (pulses
+  // spread evenly); from a list, the list's at the step's end.
+  const double target = list != nullptr ? listed_at(t1)
+                        : steps         ? command * step_angle_
+                                        : command;  // rad
   // STEP/DIR's pulses spread to the command's end: the step's, or its MuJoCo step's for a sub-step
   // (core/substep.h), so that a sub-step moves θcmd by its share only.
-  const double command_span = steps ? command_end - t0 : h;  // s
+  const double command_span = steps && list == nullptr ? command_end - t0 : h;  // s
   const double omega_cmd = config_.input == InputMode::kVelocity
                                ? command
                                : (command_span > 0 ? (target - theta_cmd0) / command_span : 0.0);
   auto command_at = [&](double t) -> CommandSample {  // t from `origin`
     if (profiled) return config_.profile.Evaluate(plan, origin + t);
+    if (list != nullptr) {
+      return {.theta = listed_at(origin + t), .omega = list->Rate(origin + t) * step_angle_};
+    }
     if (config_.input == InputMode::kVelocity || steps) {
       return {.theta = theta_cmd0 + omega_cmd * (t - (t0 - origin)), .omega = omega_cmd};
     }
@@ -780,20 +797,29 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     // RMS of speed error, now 0.015; `Averaged.AVelocityCommandMovesTheTableAtItsCrossings`).
     const double edge_rate = step_angle_ > 0 ? omega_cmd / step_angle_ : 0.0;  // microsteps/s
     const bool velocity_edges = averaged && config_.input == InputMode::kVelocity;
-    const double travel =
-        velocity_edges ? std::abs(omega_cmd) * h : std::abs(target - theta_cmd0);  // rad
-    const bool edges = kEdges && (steps || velocity_edges) && edge_rate != 0 &&
+    // A list's pulses in the step, each an edge (as many as the list has there).
+    const double listed = list != nullptr ? static_cast<double>(list->StepsIn(t0 - eps, t1)) : 0.0;
+    const double travel = velocity_edges    ? std::abs(omega_cmd) * h
+                          : list != nullptr ? listed * step_angle_
+                                            : std::abs(target - theta_cmd0);  // rad
+    const bool edges = kEdges && (steps || velocity_edges) &&
+                       (list != nullptr ? listed > 0 : edge_rate != 0) &&
                        travel / step_angle_ <= kMaxEdgesPerAdvance;
-    // The next crossing after time `from` (the step's frame), or never.
-    auto next_edge = [&](double from) {
+    // The next crossing after time `from` (the step's frame), or never. A list's pulse within
+    // eps of the step's start belongs to this step (`first`): the step before left it.
+    auto next_edge = [&](double from, bool first = false) {
       if (!edges) return kNever;
+      if (list != nullptr) {  // the next pulse of the list: its own time
+        const double next = list->NextTime(origin + from - (first ? eps : 0.0)) - origin;
+        return std::isfinite(next) ? std::max(next, from) : kNever;
+      }
       const double x = command_at(from).theta / step_angle_;  // microsteps
       const double sign = edge_rate > 0 ? 1.0 : -1.0;
       double half = edge_rate > 0 ? std::floor(x + 0.5) + 0.5 : std::ceil(x - 0.5) - 0.5;
       if (!((half - x) / edge_rate > eps)) half += sign;  // on a crossing now: the next one
       return from + (half - x) / edge_rate;
     };
-    double t_edge = next_edge(start);
+    double t_edge = next_edge(start, /*first=*/true);
     const long max_events =
         kMaxEventsPerAdvance + (edges ? static_cast<long>(travel / step_angle_) + 2 : 0L);
     // Every event moves t forward by at least eps or is the step's last, and n only grows: with

@@ -31,6 +31,7 @@
 #include <algorithm>
 #include <array>
 #include <cstddef>
+#include <memory>
 #include <optional>
 #include <type_traits>
 #include <utility>
@@ -44,6 +45,7 @@
 #include "core/motor_params.h"
 #include "core/power_stage.h"
 #include "core/sensors/velocity_estimator.h"
+#include "core/step_times.h"
 #include "core/thermal.h"
 #include "core/transmission.h"
 #include "core/winding.h"
@@ -81,6 +83,10 @@ struct DriveConfig {
   /// What the controller receives as ωfb; unset: the controller's own default.
   std::optional<SpeedFeedback> speed_feedback;
   MotionProfile profile;  ///< kNone: ctrl is the command itself
+  /// input = steps only: the STEP/DIR pulses at their own times (the list's count from the count
+  /// the drive rests at), each an edge of its own whatever the step; ctrl is then unused.
+  /// Unset: ctrl is the count at each step's end, its pulses spread evenly over the step.
+  std::shared_ptr<const StepTimes> step_times;
   WindingSolver solver = WindingSolver::kExact;
   Fidelity fidelity = Fidelity::kSwitching;  ///< kAveraged: only on a switching (chopper) drive
   double rk4_step = 1e-6;                    ///< s, step of the kRk4 reference

@@ -3,9 +3,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <string>
 
 #include "core/attributes.h"
 
@@ -16,13 +19,30 @@ StepTimes StepTimes::Parse(std::istream& in, const std::string& source) {
   std::string line;
   long number = 0;
   double count = 0;
-  while (std::getline(in, line)) {
+  // At most kMaxStepLine + 1 characters of each line are kept: a longer one is refused.
+  auto next_line = [&]() -> bool {
+    line.clear();
+    for (int c = in.get(); c != std::char_traits<char>::eof(); c = in.get()) {
+      if (c == '\n') return true;
+      if (line.size() <= kMaxStepLine) line.push_back(static_cast<char>(c));
+    }
+    return !line.empty();
+  };
+  while (next_line()) {
     ++number;
     const std::string text = Trim(line);
     if (text.empty() || text[0] == '#') continue;
     auto bad = [&](const std::string& why) {
-      return std::invalid_argument(fmt::format("{}:{}: \"{}\": {}", source, number, text, why));
+      std::string quoted = text.substr(0, 40);  // a line's start, printable
+      for (char& c : quoted) {
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+      }
+      if (text.size() > 40) quoted += "...";
+      return std::invalid_argument(fmt::format("{}:{}: \"{}\": {}", source, number, quoted, why));
     };
+    if (line.size() > kMaxStepLine) {
+      throw bad(fmt::format("a line longer than {} characters", kMaxStepLine));
+    }
     std::istringstream fields(text);
     std::string time_text, direction_text, extra;
     fields >> time_text >> direction_text >> extra;
@@ -53,6 +73,20 @@ StepTimes StepTimes::Parse(std::istream& in, const std::string& source) {
 }
 
 StepTimes StepTimes::Read(const std::string& path) {
+  std::error_code error;
+  const auto status = std::filesystem::status(path, error);  // (through symlinks)
+  if (error || !std::filesystem::exists(status)) {
+    throw std::invalid_argument(fmt::format("{}: cannot be read", path));
+  }
+  if (!std::filesystem::is_regular_file(status)) {
+    throw std::invalid_argument(
+        fmt::format("{}: not a regular file (a list of step times is a text file)", path));
+  }
+  const std::uintmax_t bytes = std::filesystem::file_size(path, error);
+  if (error || bytes > kMaxStepFileBytes) {
+    throw std::invalid_argument(fmt::format("{}: larger than {} bytes ({} steps at most)", path,
+                                            kMaxStepFileBytes, kMaxStepTimes));
+  }
   std::ifstream in(path);
   if (!in) throw std::invalid_argument(fmt::format("{}: cannot be read", path));
   return Parse(in, path);
@@ -61,6 +95,17 @@ StepTimes StepTimes::Read(const std::string& path) {
 double StepTimes::Count(double t) const {
   const auto it = std::upper_bound(times_.begin(), times_.end(), t);
   return it == times_.begin() ? 0.0 : counts_[it - times_.begin() - 1];
+}
+
+double StepTimes::NextTime(double t) const {
+  const auto it = std::upper_bound(times_.begin(), times_.end(), t);
+  return it == times_.end() ? std::numeric_limits<double>::infinity() : *it;
+}
+
+std::size_t StepTimes::StepsIn(double t0, double t1) const {
+  if (!(t1 > t0)) return 0;
+  return static_cast<std::size_t>(std::upper_bound(times_.begin(), times_.end(), t1) -
+                                  std::upper_bound(times_.begin(), times_.end(), t0));
 }
 
 double StepTimes::Rate(double t) const {

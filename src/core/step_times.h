@@ -9,6 +9,7 @@
 #define MJSTEPPER_CORE_STEP_TIMES_H_
 
 #include <cstddef>
+#include <cstdint>
 #include <istream>
 #include <string>
 #include <vector>
@@ -17,12 +18,19 @@ namespace mjstepper {
 
 /// 10 million steps: 52 min of 1/16 microsteps at 1000 r/min; beyond, a list is a mistake.
 inline constexpr std::size_t kMaxStepTimes = 10000000;
+/// The longest line a list may have: a time and a direction fit in far fewer.
+inline constexpr std::size_t kMaxStepLine = 256;
+/// The largest file Read takes: kMaxStepTimes lines of a 20-digit time and a direction.
+inline constexpr std::uintmax_t kMaxStepFileBytes = 32 * kMaxStepTimes;
 
 class StepTimes {
  public:
-  /// Throws std::invalid_argument naming `source`, the line and what is wrong.
+  /// Throws std::invalid_argument naming `source`, the line and what is wrong (quoting at most
+  /// its first 40 characters, control characters as '?'); a line longer than kMaxStepLine is
+  /// refused without reading further.
   static StepTimes Parse(std::istream& in, const std::string& source);
-  /// Parse of a file; throws std::invalid_argument when it cannot be read.
+  /// Parse of a file; throws std::invalid_argument when it is not a regular file (a device, a
+  /// directory, a pipe), is larger than kMaxStepFileBytes, or cannot be read.
   static StepTimes Read(const std::string& path);
 
   /// The signed count of steps at times <= t (s): the driver's position, in microsteps.
@@ -30,6 +38,10 @@ class StepTimes {
   /// The step rate at t (s), microsteps/s: the direction of the next step over the interval
   /// from the step before t to it; 0 before the first and after the last.
   double Rate(double t) const;
+  /// The first step time after t (s), or +infinity.
+  double NextTime(double t) const;
+  /// How many steps fall in (t0, t1] (s).
+  std::size_t StepsIn(double t0, double t1) const;
 
   std::size_t size() const { return times_.size(); }
   double last_time() const { return times_.empty() ? 0.0 : times_.back(); }

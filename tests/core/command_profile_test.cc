@@ -20,6 +20,7 @@ namespace {
 
 using ::testing::AllOf;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 TEST(CommandProfile, RampSpeedAndAngleAgree) {
   const CommandProfile p = CommandProfile::Parse("ramp(0rpm, 200rpm, 0.8s)");
@@ -99,6 +100,32 @@ TEST(StepTimes, BadListsNameTheFileAndLine) {
   EXPECT_THAT(error("0.1 1 x\n"), HasSubstr("at most a direction"));
   EXPECT_THAT(error("# nothing\n"), HasSubstr("no step times"));
   EXPECT_THAT(error("0.1\n"), ::testing::IsEmpty());
+  // A line is quoted by its start only, with no control character echoed to a terminal, and a
+  // line past kMaxStepLine is refused.
+  const std::string escape = error("\x1b[2J" + std::string(100, 'x') + "\n");
+  EXPECT_THAT(escape, HasSubstr("\"?[2Jxxx"));
+  EXPECT_THAT(escape, Not(HasSubstr("\x1b")));
+  EXPECT_LT(escape.size(), 120u);
+  EXPECT_THAT(error(std::string(100000, '1') + "\n"), HasSubstr("a line longer than 256"));
+}
+
+// The reader takes regular files only, of a bounded size: a device, a directory or a pipe is
+// refused by name before any of it is read (issue 33: `steps(/dev/zero)` read 1.06 GB).
+TEST(StepTimes, ReadTakesRegularFilesOnly) {
+  auto error = [](const std::string& path) -> std::string {
+    try {
+      StepTimes::Read(path);
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_THAT(error("/dev/zero"), HasSubstr("/dev/zero: not a regular file"));
+  EXPECT_THAT(error(::testing::TempDir()), HasSubstr("not a regular file"));
+  EXPECT_THAT(error("/nonexistent/steps.txt"), HasSubstr("cannot be read"));
+  const std::string path = ::testing::TempDir() + "/read_steps.txt";
+  std::ofstream(path) << "0.001\n0.002 -1\n";
+  EXPECT_EQ(StepTimes::Read(path).Count(1.0), 0);
 }
 
 TEST(CommandProfile, StepListDrivesTheCountFromTheStartAngle) {

@@ -7,7 +7,9 @@
 
 #include <cmath>
 #include <map>
+#include <memory>
 #include <numbers>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -15,6 +17,7 @@
 #include "core/averaged_bridge.h"
 #include "core/drive.h"
 #include "core/presets.h"
+#include "core/step_times.h"
 #include "core/units.h"
 
 namespace mjstepper {
@@ -223,6 +226,49 @@ TEST(SpreadCycle, HandedCurrentIsTheCyclesMeanWhereTheStepWouldFoldIt) {
   EXPECT_GT(scatter, 0.005);         // A: the ripple the step would fold
   EXPECT_LT(held, scatter / 100);    // measured 1/2400: the linear pieces. error
   EXPECT_EQ(fine_handed, fine_now);  // at 1 µs the step resolves the cycle
+}
+
+// STEP/DIR pulses from a list (DriveConfig::step_times, the `step_times` attribute) move the
+// table at their own times whatever the simulation step: 40 pulses at irregular times, forward
+// and back, give the same currents and count after 5 ms at steps of 1 µs, 50 µs and 1 ms (to
+// 1e-9 A, the switching's own independence of the step above). The same pulses through ctrl, the
+// count at each step's end with its pulses spread evenly over the step, do not: at 1 ms they move
+// up to a millisecond late.
+TEST(SpreadCycle, ListedPulsesMoveTheTableAtTheirOwnTimesWhateverTheStep) {
+  std::string text;
+  for (int k = 0; k < 40; ++k) {
+    const double t = 0.3e-3 + 0.0917e-3 * k + 0.03e-3 * std::sin(1.7 * k);  // s, irregular
+    text += std::to_string(t) + (k < 30 ? "\n" : " -1\n");
+  }
+  std::istringstream in(text);
+  const auto list = std::make_shared<const StepTimes>(StepTimes::Parse(in, "pulses"));
+  DriveConfig listed = Config(Unit({{"run_current", "1.41421356237"}}));
+  listed.input = InputMode::kSteps;
+  listed.step_times = list;
+  DriveConfig counted = listed;
+  counted.step_times = nullptr;
+  struct End {
+    double ia, ib, theta_cmd;
+  };
+  auto run = [&](const DriveConfig& c, double h) {
+    const Drive drive(c);
+    DriveState s = drive.Rest(0.0, 0.0, 0.0);
+    for (long k = 0; k < std::lround(5e-3 / h); ++k) {
+      const double count = list->Count((k + 1) * h);  // ctrl: the count at the step's end
+      EXPECT_EQ(drive.Advance(&s, k * h, (k + 1) * h, 0.0, count), AdvanceStatus::kOk);
+    }
+    return End{s.current_a, s.current_b, s.theta_cmd / drive.StepAngle()};
+  };
+  const End fine = run(listed, 1e-6);
+  EXPECT_NEAR(fine.theta_cmd, 20, 1e-9);  // 30 forward, 10 back
+  for (double h : {50e-6, 1e-3}) {
+    const End coarse = run(listed, h);
+    EXPECT_NEAR(coarse.ia, fine.ia, 1e-9) << h;
+    EXPECT_NEAR(coarse.ib, fine.ib, 1e-9) << h;
+    EXPECT_NEAR(coarse.theta_cmd, fine.theta_cmd, 1e-9) << h;
+  }
+  const End spread_fine = run(counted, 1e-6), spread_coarse = run(counted, 1e-3);
+  EXPECT_GT(std::abs(spread_coarse.ib - spread_fine.ib), 1e-4);  // ctrl's spread moves them
 }
 
 TEST(SpreadCycle, FastDecayPhaseFollowsTheTableAtSpeedWhereSlowDecayCannot) {
