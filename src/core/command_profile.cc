@@ -6,6 +6,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -396,6 +397,45 @@ double CommandProfile::RawAngle(double t, double step_angle) const {
     }
   }
   return 0.0;
+}
+
+std::optional<StepTimes> CommandProfile::PulseTimes() const {
+  if (kind_ != Kind::kStepList) return std::nullopt;
+  if (!shaper_) return *steps_;
+  const std::size_t n = shaper_->times.size();
+  if (steps_->size() > kMaxStepTimes / std::max<std::size_t>(n, 1)) return std::nullopt;
+  // Each step j of the list, delayed by each impulse i, moves the shaped sum by A_i·dir_j at
+  // t_j + T_i; the shaped count is the sum rounded (StepCount), so a pulse is emitted wherever
+  // the rounded sum changes, as many as it changes by.
+  struct Event {
+    double time, weight;
+  };
+  std::vector<Event> events;
+  events.reserve(steps_->size() * n);
+  double previous = 0;
+  for (std::size_t j = 0; j < steps_->size(); ++j) {
+    const double count = steps_->CountAt(j);
+    for (std::size_t i = 0; i < n; ++i) {
+      events.push_back(
+          {steps_->TimeAt(j) + shaper_->times[i], shaper_->amplitudes[i] * (count - previous)});
+    }
+    previous = count;
+  }
+  std::stable_sort(events.begin(), events.end(),
+                   [](const Event& a, const Event& b) { return a.time < b.time; });
+  std::vector<double> times, directions;
+  double sum = 0, rounded = 0;
+  for (std::size_t k = 0; k < events.size();) {
+    const double t = events[k].time;
+    for (; k < events.size() && events[k].time == t; ++k) sum += events[k].weight;
+    const double now = std::round(sum);
+    for (; rounded != now && times.size() < kMaxStepTimes; rounded += now > rounded ? 1 : -1) {
+      times.push_back(t);
+      directions.push_back(now > rounded ? 1 : -1);
+    }
+  }
+  if (times.empty() || times.size() >= kMaxStepTimes) return std::nullopt;
+  return StepTimes::FromSteps(times, directions, text_);
 }
 
 double CommandProfile::ControlForStep(double t, double h, InputMode input, double theta_start,

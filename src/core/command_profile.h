@@ -64,6 +64,11 @@ class CommandProfile {
   double Angle(double t, double step_angle = 0) const;
   /// True for steps(FILE) (shaped or not): a STEP/DIR stream, only for drives with input = steps.
   bool step_list() const { return kind_ == Kind::kStepList; }
+  /// A step list's steps as a driver receives them, each at its own time: the list itself, or,
+  /// shaped, the times at which the shaped count round(Σ A_i·count(t − T_i)) changes, each change
+  /// of one a step. Empty when not a step list, or when the shaped list would pass
+  /// kMaxStepTimes.
+  std::optional<StepTimes> PulseTimes() const;
   /// The input shaper of shaped(…), or nullptr.
   const InputShaper* shaper() const { return shaper_.get(); }
   /// True for angle profiles (constant(…rad), ramp(…rad, …rad, T), targets(…)).

@@ -72,6 +72,36 @@ StepTimes StepTimes::Parse(std::istream& in, const std::string& source) {
   return s;
 }
 
+StepTimes StepTimes::FromSteps(const std::vector<double>& times,
+                               const std::vector<double>& directions, const std::string& source) {
+  if (times.size() != directions.size() || times.empty() || times.size() > kMaxStepTimes) {
+    throw std::invalid_argument(fmt::format("{}: {} steps (1 to {} with a direction each)", source,
+                                            times.size(), kMaxStepTimes));
+  }
+  StepTimes s;
+  double count = 0;
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    if (!(times[k] >= 0 && times[k] <= 1e6) || (k > 0 && times[k] < times[k - 1]) ||
+        (directions[k] != 1 && directions[k] != -1)) {
+      throw std::invalid_argument(fmt::format(
+          "{}: step {} at {:g} s, direction {:g}: times rise within [0, 1e6], directions are ±1",
+          source, k + 1, times[k], directions[k]));
+    }
+    count += directions[k];
+    s.times_.push_back(times[k]);
+    s.counts_.push_back(count);
+  }
+  return s;
+}
+
+void StepTimes::Write(std::ostream& out) const {
+  double count = 0;
+  for (std::size_t k = 0; k < times_.size(); ++k) {
+    out << fmt::format("{:.17g} {}\n", times_[k], counts_[k] > count ? "1" : "-1");
+    count = counts_[k];
+  }
+}
+
 StepTimes StepTimes::Read(const std::string& path) {
   std::error_code error;
   const auto status = std::filesystem::status(path, error);  // (through symlinks)

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <istream>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,13 @@ class StepTimes {
   /// its first 40 characters, control characters as '?'); a line longer than kMaxStepLine is
   /// refused without reading further.
   static StepTimes Parse(std::istream& in, const std::string& source);
+  /// A list made of its steps, times (s, non-decreasing, within [0, 1e6]) and directions (+1 or
+  /// −1), at most kMaxStepTimes; throws std::invalid_argument naming `source` otherwise.
+  static StepTimes FromSteps(const std::vector<double>& times,
+                             const std::vector<double>& directions, const std::string& source);
+  /// The list in the format Parse reads, one step per line ("time direction", the time to 17
+  /// significant digits, so that it reads back to the same double).
+  void Write(std::ostream& out) const;
   /// Parse of a file; throws std::invalid_argument when it is not a regular file (a device, a
   /// directory, a pipe), is larger than kMaxStepFileBytes, or cannot be read.
   static StepTimes Read(const std::string& path);
@@ -44,6 +52,8 @@ class StepTimes {
   std::size_t StepsIn(double t0, double t1) const;
 
   std::size_t size() const { return times_.size(); }
+  double TimeAt(std::size_t k) const { return times_[k]; }    ///< s, the k-th step's time
+  double CountAt(std::size_t k) const { return counts_[k]; }  ///< the count after the k-th step
   double last_time() const { return times_.empty() ? 0.0 : times_.back(); }
 
  private:

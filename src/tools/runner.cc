@@ -2,14 +2,19 @@
 
 #include <fmt/format.h>
 #include <fmt/ostream.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <optional>
 #include <ostream>
 #include <stdexcept>
+#include <system_error>
 
 #include "core/command_profile.h"
 #include "core/sensors/adxl345.h"
@@ -71,12 +76,84 @@ void Settle(mjModel* m, mjData* d, const std::vector<StepperActuator>& steppers,
   for (int i = 0; i < 3; ++i) m->opt.gravity[i] = gravity[i];
 }
 
+// A folder of this run's own, removed with everything in it when the run ends.
+class RunFolder {
+ public:
+  RunFolder() = default;
+  RunFolder(const RunFolder&) = delete;
+  RunFolder& operator=(const RunFolder&) = delete;
+  ~RunFolder() {
+    std::error_code ignored;
+    if (!path_.empty()) std::filesystem::remove_all(path_, ignored);
+  }
+  // The folder, made on first use under the system's temporary folder.
+  const std::filesystem::path& path() {
+    if (path_.empty()) {
+      const auto base = std::filesystem::temp_directory_path();
+      for (int k = 0; k < 1000 && path_.empty(); ++k) {
+        const auto candidate = base / fmt::format("mjstepper-run-{}-{}", ::getpid(), k);
+        if (std::filesystem::create_directory(candidate)) path_ = candidate;
+      }
+      if (path_.empty()) throw std::runtime_error("cannot make a temporary folder for the run");
+    }
+    return path_;
+  }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// STEP/DIR step lists reach their drives at their own times: each stepper with input = steps
+// whose --ctrl is a step list (steps(FILE), shaped or not) gets the list's pulses as its
+// `step_times` (a file in `folder`), rather than one count per step whose pulses the drive spreads
+// over the step. Not for an actuator that shares its <instance> with another (its config is
+// theirs too), nor where the user set step_times. The overrides to add.
+std::vector<ConfigOverride> PulseOverrides(const RunOptions& options, const StepperModel& sm,
+                                           RunFolder* folder) {
+  std::vector<ConfigOverride> out;
+  const mjModel* m = sm.model.get();
+  for (const StepperActuator& s : sm.steppers) {
+    const auto it = options.ctrl.find(s.name);
+    if (s.config.input != InputMode::kSteps || it == options.ctrl.end()) continue;
+    const bool set = std::any_of(
+        options.overrides.begin(), options.overrides.end(),
+        [&](const ConfigOverride& o) { return o.actuator == s.name && o.key == "step_times"; });
+    const int instance = m->actuator_plugin[s.actuator];
+    int sharing = 0;
+    for (int a = 0; a < m->nu; ++a) sharing += m->actuator_plugin[a] == instance ? 1 : 0;
+    if (set || s.config.step_times || sharing > 1) continue;
+    std::optional<CommandProfile> profile;
+    try {
+      profile = CommandProfile::Parse(it->second, RadPerMetre(m, s));
+    } catch (const std::invalid_argument&) {
+      continue;  // Run reports it with the actuator's context
+    }
+    const std::optional<StepTimes> pulses = profile->PulseTimes();
+    if (!pulses) continue;
+    const auto path = folder->path() / fmt::format("{}.steps", out.size());
+    std::ofstream file(path);
+    pulses->Write(file);
+    file.close();
+    if (!file) throw std::runtime_error(fmt::format("cannot write {}", path.string()));
+    out.push_back({.actuator = s.name, .key = "step_times", .value = path.string()});
+  }
+  return out;
+}
+
 }  // namespace
 
 RunResult Run(const RunOptions& options, std::ostream& progress) {
   RequireInRange("--duration", Range("duration"), options.duration);
   RequireInRange("--log-every", Range("log-every"), options.log_every);
   StepperModel sm = LoadStepperModel(options.model, options.overrides);
+  RunFolder
+      folder;  // (the plugin reads the lists whenever MuJoCo makes an mjData: kept to the end)
+  if (const std::vector<ConfigOverride> pulses = PulseOverrides(options, sm, &folder);
+      !pulses.empty()) {
+    std::vector<ConfigOverride> overrides = options.overrides;
+    overrides.insert(overrides.end(), pulses.begin(), pulses.end());
+    sm = LoadStepperModel(options.model, overrides);
+  }
   for (const auto& [name, torque] : options.loads) SetLoadTorque(sm.model.get(), name, torque);
   for (const auto& [name, mass] : options.masses) SetBodyMass(sm.model.get(), name, mass);
   const mjModel* m = sm.model.get();

@@ -152,6 +152,41 @@ TEST(CommandProfile, StepListDrivesTheCountFromTheStartAngle) {
       HasSubstr("cannot be read"));
 }
 
+// Issue 30: a step list's pulses as a driver receives them, each at its own time (the drive's
+// step_times): the list itself, and for a shaped list the steps of the shaped count, at the very
+// instants it changes. Read back, their count equals the shaped count everywhere on a fine grid,
+// and just before and after each of its own steps.
+TEST(CommandProfile, PulseTimesAreTheShapedCountsOwnSteps) {
+  const std::string path = ::testing::TempDir() + "/pulses.txt";
+  {
+    std::ofstream out(path);
+    for (int k = 1; k <= 200; ++k) out << 0.001 + k * 0.37e-3 << (k > 150 ? " -1" : "") << "\n";
+  }
+  const double step = kTwoPi / (4 * 50 * 16);  // rad per microstep
+  for (const std::string& text : {"steps(" + path + ")", "shaped(steps(" + path + "), zv 40Hz)",
+                                  "shaped(steps(" + path + "), ei 55Hz 0.1)"}) {
+    const CommandProfile p = CommandProfile::Parse(text);
+    const std::optional<StepTimes> pulses = p.PulseTimes();
+    ASSERT_TRUE(pulses) << text;
+    // The shaped count at t is ControlForStep's at the end of a step ending at t (from count 0).
+    auto shaped = [&](double t) {
+      return p.ControlForStep(t - 1e-4, 1e-4, InputMode::kSteps, 0.0, step);
+    };
+    for (double t = 0; t < 0.2; t += 7.3e-6) {
+      ASSERT_EQ(pulses->Count(t), shaped(t)) << text << " at " << t;
+    }
+    // A picosecond either side of each of its steps (at the instant itself the shaped count's
+    // t − T_i may round below the list's time by an ulp).
+    for (std::size_t k = 0; k < pulses->size(); ++k) {
+      const double t = pulses->TimeAt(k);
+      EXPECT_EQ(pulses->Count(t + 1e-12), shaped(t + 1e-12)) << text << " after its step " << k;
+      EXPECT_EQ(pulses->Count(t - 1e-12), shaped(t - 1e-12)) << text << " before its step " << k;
+    }
+    EXPECT_EQ(pulses->Count(1.0), 100) << text;  // 150 forward, 50 back
+  }
+  EXPECT_FALSE(CommandProfile::Parse("constant(10rpm)").PulseTimes());
+}
+
 // Linear units on a linear axis (issue 19 item 7): θ = gear·x with the transmission's gear in rad
 // per metre. A profile in mm, mm/s, mm/s² gives the very commands of the same profile written by
 // hand in rad, rad/s, rad/s² (each value gear·(v·1e-3), printed to 17 digits): bit-identical, for

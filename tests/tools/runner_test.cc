@@ -125,6 +125,48 @@ TEST(Runner, StepTimeListDrivesASteppingStepper) {
   EXPECT_THAT(refused.output, HasSubstr("set shaft.input=steps"));
 }
 
+// Issue 30: a step list given with --ctrl reaches a STEP/DIR drive at its own times, as its
+// `step_times` (each pulse an edge where it falls; SpreadCycle.ListedPulses… shows the drive's
+// side), not as one count per step spread over the step: the run equals the same list given as
+// the attribute, bit for bit. A shaped list reaches it as the shaped count's own steps, and ends
+// at the list's count.
+TEST(Runner, StepListsReachTheDriveAtTheirOwnTimes) {
+  const auto list = TempDir() / "irregular.txt";
+  {
+    std::ofstream out(list);
+    for (int k = 0; k < 300; ++k) out << 0.002 + 97e-6 * k + 31e-6 * std::sin(0.7 * k) << "\n";
+  }
+  const std::string sets =
+      " --set shaft.drive=chopper --set shaft.input=steps --set shaft.bus_voltage=24"
+      " --set shaft.run_current=1.3";
+  auto last_row = [](const std::filesystem::path& csv) {
+    std::ifstream in(csv);
+    std::string line, last;
+    while (std::getline(in, line)) last = line;
+    return last;
+  };
+  const auto by_ctrl = TempDir() / "by_ctrl.csv", by_attribute = TempDir() / "by_attribute.csv";
+  Result r = RunCli("run " + kModel + " --duration 0.04 --quiet" + sets + " --ctrl 'shaft=steps(" +
+                    list.string() + ")' --log " + by_ctrl.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = RunCli("run " + kModel + " --duration 0.04 --quiet" + sets +
+             " --set shaft.step_times=" + list.string() + " --log " + by_attribute.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(last_row(by_ctrl), last_row(by_attribute));
+  const auto shaped = TempDir() / "shaped.csv";
+  r = RunCli("run " + kModel + " --duration 0.06 --quiet" + sets + " --ctrl 'shaft=shaped(steps(" +
+             list.string() + "), zv 40Hz)' --log " + shaped.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream head_in(shaped);
+  std::string header;
+  std::getline(head_in, header);
+  const auto names = Split(header);
+  const auto values = Split(last_row(shaped));
+  const auto column = std::find(names.begin(), names.end(), "shaft:theta_cmd[rad]");
+  ASSERT_NE(column, names.end()) << header;
+  EXPECT_NEAR(std::stod(values[column - names.begin()]), 300 * 2 * M_PI / 3200, 1e-9);
+}
+
 // Issue 29, item 1: a shaped(…) command on a driver chip with the drive's own profile. ZV at
 // 20 Hz without damping splits the 0.4 rad target at 10 ms into 0.2 rad then, half a period
 // (25 ms) later, 0.2 rad more; the trapezoid (20 rad/s, 2000 rad/s²) takes 20 ms for each half,
