@@ -50,7 +50,7 @@ struct PhaseSwitch {
   // The ripple of the chopper's last whole cycle (Ripple), kept by the drive: each cycle's
   // current at its start and at each change of the bridge's voltage, between which it is nearly
   // linear (an exponential of time constant L/R, milliseconds, over microseconds).
-  static constexpr int kCyclePoints = 8;  ///< the most kept per cycle (SpreadCycle makes 4)
+  static constexpr int kCyclePoints = 4;  ///< the most kept per cycle (SpreadCycle makes 4)
   double cycle_open = 0;                  ///< 1 while the ongoing cycle is recorded
   double cycle_target = 0;                ///< A, its target when it began
   double cycle_from = 0;                  ///< s, the ongoing cycle's start (its on phase's)
