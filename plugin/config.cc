@@ -98,8 +98,9 @@ constexpr AttributeSpec kAttrSpeedFeedback{
     "ideal sensor of Kim's simulations)."};
 constexpr AttributeSpec kAttrStepTimes{
     "step_times", "file", "none", "—",
-    "With `input` = `steps`: a list of STEP/DIR pulse times, one per line (a time in s, then "
-    "optionally the direction +1 or -1; the format of `steps(FILE)`, read at load), counted on "
+    "With `input` = `steps`: a file of STEP/DIR pulse times, one per line (a time in s, then "
+    "optionally the direction +1 or -1; the format of `steps(FILE)`; a path as given, relative "
+    "to the working folder, read whenever MuJoCo makes an mjData), counted on "
     "from the whole microstep the drive rests at. Each pulse moves the count at its own time, "
     "whatever the timestep, as a chip sees it; ctrl is then unused. Without it, ctrl is the "
     "count at each step's end and a step's pulses are spread evenly over it (up to half a step "
