@@ -35,7 +35,8 @@ std::string Model(const std::string& actuator, double timestep) {
 }
 
 // The Tsui PI drive (at its interrupts), the averaged SpreadCycle (whose phases' modes are state
-// too), the Tsui drive with the sub-stepped rotor at 1 ms (its speed is state), averaged voltage
+// too), the switching SpreadCycle at 50 µs (each phase's last cycle, whose ripple the handed torque
+// leaves out), the Tsui drive with the sub-stepped rotor at 1 ms (its speed is state), averaged voltage
 // microstepping, the averaged SpreadCycle sub-stepped at 1 ms (its velocity crossings), and the
 // averaged PI drive and servo sub-stepped at 1 ms (the servo's held iq* and the one before it).
 struct Case {
@@ -58,6 +59,11 @@ INSTANTIATE_TEST_SUITE_P(
              R"(<config key="motor" value="17hs19_2004s1"/><config key="driver" value="tmc2209"/>)"
              R"(<config key="fidelity" value="averaged"/><config key="input" value="velocity"/>)"
              R"(</plugin>)",
+             5e-5},
+        Case{"SwitchingSpreadCycleTakingOutItsRipple",  // (its last cycle is state: switching.h)
+             R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="8.2e-6">)"
+             R"(<config key="motor" value="17hs19_2004s1"/><config key="driver" value="tmc2209"/>)"
+             R"(<config key="input" value="velocity"/></plugin>)",
              5e-5},
         Case{"SubsteppedTsuiAt1ms",
              R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="0.36e-4">)"
