@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <optional>
 #include <ostream>
@@ -107,9 +108,11 @@ class RunFolder {
 // whose --ctrl is a step list (steps(FILE), shaped or not) gets the list's pulses as its
 // `step_times` (a file in `folder`), rather than one count per step whose pulses the drive spreads
 // over the step. Not for an actuator that shares its <instance> with another (its config is
-// theirs too), nor where the user set step_times. The overrides to add.
+// theirs too), nor where the user set step_times. The overrides to add; the step lists parsed,
+// by actuator name, into `parsed` (each read once: Run drives ctrl from them too).
 std::vector<ConfigOverride> PulseOverrides(const RunOptions& options, const StepperModel& sm,
-                                           RunFolder* folder) {
+                                           RunFolder* folder,
+                                           std::map<std::string, CommandProfile>* parsed) {
   std::vector<ConfigOverride> out;
   const mjModel* m = sm.model.get();
   for (const StepperActuator& s : sm.steppers) {
@@ -130,6 +133,7 @@ std::vector<ConfigOverride> PulseOverrides(const RunOptions& options, const Step
     }
     const std::optional<StepTimes> pulses = profile->PulseTimes();
     if (!pulses) continue;
+    parsed->emplace(s.name, *profile);
     const auto path = folder->path() / fmt::format("{}.steps", out.size());
     std::ofstream file(path);
     pulses->Write(file);
@@ -148,7 +152,8 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
   StepperModel sm = LoadStepperModel(options.model, options.overrides);
   RunFolder
       folder;  // (the plugin reads the lists whenever MuJoCo makes an mjData: kept to the end)
-  if (const std::vector<ConfigOverride> pulses = PulseOverrides(options, sm, &folder);
+  std::map<std::string, CommandProfile> parsed;  // step lists, read once
+  if (const std::vector<ConfigOverride> pulses = PulseOverrides(options, sm, &folder, &parsed);
       !pulses.empty()) {
     std::vector<ConfigOverride> overrides = options.overrides;
     overrides.insert(overrides.end(), pulses.begin(), pulses.end());
@@ -204,6 +209,8 @@ RunResult Run(const RunOptions& options, std::ostream& progress) {
     const auto it = options.ctrl.find(s.name);
     if (it == options.ctrl.end()) {
       profiles.push_back(CommandProfile::Parse("constant(0rad/s)"));
+    } else if (const auto listed = parsed.find(s.name); listed != parsed.end()) {
+      profiles.push_back(listed->second);
     } else {
       try {  // linear units (mm, m/s, …) through the gear of a slide or a tendon
         profiles.push_back(CommandProfile::Parse(it->second, RadPerMetre(m, s)));
