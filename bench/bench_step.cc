@@ -7,7 +7,8 @@
 //   valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Round*'
 //       build/bench_step 20000 stepper    (or stepper1mhz, dcmotor, dcmotor_ripple):
 //   Ir / (8·20000) per step. The 6-DOF arm: bench_step 1000 arm6 [TIMESTEP] (or arm6_ideal,
-//   arm6_servo, arm6_substepped; parol6, parol6_substepped, parol6_substepped_averaged);
+//   arm6_servo, arm6_substepped; parol6, parol6_servo, parol6_substepped,
+//   parol6_substepped_averaged);
 //   bench/arm_cost.sh runs them.
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
@@ -140,13 +141,17 @@ int main(int argc, char** argv) {
   // ideal current sources) or "arm6_servo" (the same arm on MuJoCo's position servos), holding the
   // standby pose from qpos0 against gravity, the plugin alone (no probe sensors, unlike `mjstepper
   // run`); an optional timestep (s) replaces their 1 ms.
-  // "parol6" (models/parol6.xml, six TMC5160s in StealthChop) likewise; "_substepped" adds the
+  // "parol6" (models/parol6.xml, six TMC5160s in StealthChop) likewise, and "parol6_servo" (the
+  // same arm on MuJoCo's position servos, its cost baseline); "_substepped" adds the
   // sub-stepped rotor (coupling = substepped), "_averaged" the averaged drives (fidelity =
   // averaged), SPEC §11: e.g. "parol6_substepped_averaged".
   const bool substepped = only.find("_substepped") != std::string::npos;
   const bool averaged_drives = only.ends_with("_averaged");
-  const std::string base = only.substr(0, only.find('_', only.starts_with("arm6_servo") ? 6 : 0));
-  if (base == "arm6" || base == "arm6_servo" || base == "parol6") {
+  const std::size_t name_end = only.starts_with("arm6_servo")     ? 6
+                               : only.starts_with("parol6_servo") ? 8
+                                                                  : 0;
+  const std::string base = only.substr(0, only.find('_', name_end));
+  if (base == "arm6" || base == "arm6_servo" || base == "parol6" || base == "parol6_servo") {
     const std::string file = base;
     std::string configs =
         only == "arm6_ideal" ? R"(<config key="drive" value="ideal_current"/>)" : "";
