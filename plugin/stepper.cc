@@ -785,9 +785,10 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
   } members(*this, d, t1, substep_states_.data(), command, status);
 
   // Sub-steps for the stiffest rotor mode and for the fastest forcing at the rotors' speeds.
-  double fastest = FastestRotorMode(std::span(inverse_inertia, n * n), member_stiffness_);  // rad/s
-  for (int i = 0; i < n; ++i) fastest = std::max(fastest, member_forcing_[i] * std::abs(omega[i]));
-  const int substeps = SubstepCount(fastest, h);
+  const double ring = FastestRotorMode(std::span(inverse_inertia, n * n), member_stiffness_);
+  double forcing = 0;  // rad/s
+  for (int i = 0; i < n; ++i) forcing = std::max(forcing, member_forcing_[i] * std::abs(omega[i]));
+  const int substeps = SubstepCount(ring, forcing, h);
   for (int i = 0; i < n; ++i) chord[i] = theta[i];  // θ0, kept for the chord
   IntegrateRotors({.inverse_inertia = std::span(inverse_inertia, n * n),
                    .acceleration = std::span(accel, n),

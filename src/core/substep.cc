@@ -45,8 +45,9 @@ bool InvertShifted(std::span<const double> b, double delta, std::size_t n, std::
 }
 }  // namespace
 
-int SubstepCount(double omega, double h) {
-  const double n = std::ceil(omega * h / kSubstepOmegaTimesStep);
+int SubstepCount(double ring, double forcing, double h) {
+  const double n = std::max(std::ceil(ring * h / kSubstepRingOmegaTimesStep),
+                            std::ceil(forcing * h / kSubstepOmegaTimesStep));
   if (!(n >= 1)) return 1;  // (NaN too)
   return n > kMaxSubsteps ? kMaxSubsteps : static_cast<int>(n);
 }

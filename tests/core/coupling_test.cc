@@ -1,4 +1,5 @@
-// core/coupling.h: C-1 and C-2 on the linear oscillator they are derived for.
+// core/coupling.h: C-1 and C-2 on the linear oscillator they are derived for; core/substep.h's
+// sub-step count.
 #include "core/coupling.h"
 
 #include <gtest/gtest.h>
@@ -7,10 +8,13 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <numbers>
 #include <span>
 #include <stdexcept>
 #include <vector>
+
+#include "core/substep.h"
 
 namespace mjstepper {
 namespace {
@@ -217,6 +221,20 @@ TEST(Coupling, TwoSteppersOnOneJoint) {
   const double coarse = 3e-3;  // h²·(k1 + k2)/J = 10.7: past the series' reach
   ConsistentTorques(same, k2, tau2, a2, coarse, out);
   EXPECT_EQ(out, tau2);
+}
+
+// The sub-step count (core/substep.h): the stiffest rotor mode at ω·δ <= 0.6, whose linearised
+// ring C-3 makes exact at any ω·δ, and the torque's forcing at ω·δ <= 0.3, whose change over a
+// sub-step C-3 holds. PAROL6 holding at 1 ms (its ring bound about 2 400 rad/s, no forcing at rest)
+// takes 4 sub-steps, not the 8 of one bound of 0.3 for both.
+TEST(SubstepCount, TheRingAtSixTenthsAndTheForcingAtThreeTenthsOfARadianPerSubstep) {
+  EXPECT_EQ(SubstepCount(2400, 0, 1e-3), 4);
+  EXPECT_EQ(SubstepCount(0, 2400, 1e-3), 8);
+  EXPECT_EQ(SubstepCount(2400, 2400, 1e-3), 8);  // the larger count
+  EXPECT_EQ(SubstepCount(2401, 0, 1e-3), 5);     // the least N at or under the bound
+  EXPECT_EQ(SubstepCount(0, 0, 1e-3), 1);
+  EXPECT_EQ(SubstepCount(std::numeric_limits<double>::quiet_NaN(), 0, 1e-3), 1);
+  EXPECT_EQ(SubstepCount(0, 1e12, 1e-3), kMaxSubsteps);
 }
 
 }  // namespace

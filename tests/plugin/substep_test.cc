@@ -53,8 +53,8 @@ double RippleAt(double h, const std::string& coupling) {
 
 // At ωn·h = 0.89 (1 ms; the rotor with its detent's worst case rings at 149 Hz) the sub-stepped
 // rotor's velocity ripple is the 10 µs reference's within 2 % (measured +0.15 %: the sub-steps
-// resolve the ring and the full-step forcing at 4·Nr·20 rad/s with ω·δ <= 0.3, 14 sub-steps; with
-// the ring alone bounding them, 4 sub-steps, it was +1.0 %). The consistent coupling at 1 ms is
+// resolve the full-step forcing at 4·Nr·20 rad/s with ω·δ <= 0.3, 14 sub-steps; with the ring
+// alone bounding them at 0.3, 4 sub-steps, it was +1.0 %). The consistent coupling at 1 ms is
 // 25 % high: the band tells them apart.
 TEST(Substepped, TheTsuiRippleAtOneMillisecondIsTheFineReferences) {
   const double reference = RippleAt(1e-5, "consistent");
