@@ -221,8 +221,12 @@ constexpr AttributeSpec kAttrFidelity{
     "(`src/core/averaged_current_loop.h`), exact over each step; where the bus cuts the request "
     "it runs the interrupts. `servo` and `identification`: the same loop in the encoder's frame, "
     "the position loop of T(19) still run at each of its own ticks. `ideal_current` has no "
-    "clock: it is the same in both. Not for `stmms` and `high_gain_foc`, whose position loops "
-    "must be evaluated at their own bandwidth, near the clock (`docs/coupling.md`)."};
+    "clock: it is the same in both. `stmms`: K(28)'s voltage from the law's continuous τd, a "
+    "polynomial over each step, lagging by D + T/2, on the exact winding solution "
+    "(`src/core/averaged_feed_forward.h`), with `encoder_counts` 0 and `speed_feedback` exact; "
+    "where the voltage might leave the stage's linear range it runs the interrupts. Not for "
+    "`high_gain_foc`, whose current feedback at ρ reads the measured current "
+    "(`docs/coupling.md`)."};
 
 const std::vector<const AttributeSpec*>& DriveAttributes() {
   static const std::vector<const AttributeSpec*> list = {&kAttrMotor,
@@ -437,6 +441,20 @@ DriveConfig Parse(const AttributeSource& a) {
                            harmonics, kAveragedLoopHarmonics));
     }
     c.fidelity = Fidelity::kAveraged;
+    // The averaged feed-forward law reads the rotor's exact angle and speed
+    // (averaged_feed_forward.h).
+    if (std::holds_alternative<Stmms>(c.controller)) {
+      if (c.encoder_counts != 0) {
+        ThrowBad(kAttrEncoderCounts, fmt::format("{}", c.encoder_counts),
+                 "must be 0 with fidelity = averaged on drive stmms, whose averaged law reads the "
+                 "rotor's exact angle (or use fidelity = switching)");
+      }
+      if (c.speed_feedback.value_or(SpeedFeedback::kExact) != SpeedFeedback::kExact) {
+        ThrowBad(kAttrSpeedFeedback, "estimate",
+                 "must be exact with fidelity = averaged on drive stmms, whose averaged law reads "
+                 "the rotor's exact speed (or use fidelity = switching)");
+      }
+    }
   }
   c.heat = ParseHeat(a, *preset, drive);
   // An attribute the chosen controller does not read is a mistake, not a silent no-op.

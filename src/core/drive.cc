@@ -15,6 +15,7 @@
 
 #include "core/averaged_bridge.h"
 #include "core/averaged_current_loop.h"
+#include "core/averaged_feed_forward.h"
 #include "core/motor.h"
 #include "core/sensors/encoder.h"
 #include "core/switching.h"
@@ -86,13 +87,23 @@ void Validate(const DriveConfig& c) {
               (HasAveragedForm(c.controller) && c.solver == WindingSolver::kExact),
           "fidelity (0: switching, 1: averaged)", static_cast<int>(c.fidelity),
           "averaged needs a drive with an averaged form (a chopper, StealthChop, voltage "
-          "microstepping, the PI drive, the servo, identification, an ideal source) on the exact "
-          "winding solver");
+          "microstepping, the PI drive, the servo, identification, Kim's STMMS, an ideal source) "
+          "on the exact winding solver");
   Require(c.transmission.efficiency > 0 && c.transmission.efficiency <= 1, "efficiency",
           c.transmission.efficiency, "must be in (0, 1]");
   Require(c.transmission.backdrive_efficiency > 0 && c.transmission.backdrive_efficiency <= 1,
           "backdrive_efficiency", c.transmission.backdrive_efficiency, "must be in (0, 1]");
   Require(c.encoder_counts >= 0, "encoder_counts", c.encoder_counts, "must be >= 0 (0: ideal)");
+  // The averaged feed-forward law (averaged_feed_forward.h) reads the rotor's own angle and speed.
+  const bool fed_forward = std::visit(
+      [](const auto& unit) { return FeedForwardUnit<std::decay_t<decltype(unit)>>; }, c.controller);
+  Require(c.fidelity != Fidelity::kAveraged || !fed_forward || c.encoder_counts == 0,
+          "encoder_counts", c.encoder_counts,
+          "must be 0 with fidelity = averaged: the averaged law reads the rotor's exact angle");
+  Require(c.fidelity != Fidelity::kAveraged || !fed_forward ||
+              c.speed_feedback.value_or(SpeedFeedback::kExact) == SpeedFeedback::kExact,
+          "speed_feedback (0: estimate, 1: exact)", 0,
+          "must be exact with fidelity = averaged: the averaged law reads the rotor's exact speed");
   Require(c.velocity_cutoff > 0 && std::isfinite(c.velocity_cutoff), "velocity_cutoff",
           c.velocity_cutoff, "must be finite and > 0 (Hz)");
   Require(c.input != InputMode::kSteps || Microsteps(c.controller) > 0, "microsteps",
@@ -523,6 +534,103 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     return {.theta = command, .omega = omega_cmd};
   };
 
+  // SPEC §11, a feed-forward law averaged (Kim's STMMS; averaged_feed_forward.h): the law's
+  // continuous voltage over the whole step on the winding's exact solution, (F-1)-(F-2); no
+  // interrupts, whatever the clock. A step whose voltage might leave the stage's linear range runs
+  // its interrupts instead (the switching form below), so that the bus still cuts it.
+  bool fed_forward = false;
+  if constexpr (FeedForwardUnit<C>) {
+    if (config_.fidelity == Fidelity::kAveraged && h > 0) {
+      typename C::State unit = Unpack<typename C::State>(s->unit.data());
+      const KimMechanical& law = controller.mechanical;
+      const double period = config_.isr_period;                 // T, s
+      const double lag = config_.compute_delay + 0.5 * period;  // D + T/2, s
+      // The command in s = (t − t0)/h: θd as a cubic (a profile's quadratic pieces exactly, by
+      // their Hermite cubic; a ctrl's constant or line as command_at gives it), θ̇d and θ̈d beside
+      // it (a profile's by differentiation; a ctrl's as command_at gives them).
+      const CommandSample c0 = command_at(t0), c1 = command_at(t1);
+      std::array<double, 4> d;  // θd, rad, coefficients of s^0..s^3
+      std::array<double, 3> v;  // θ̇d, rad/s
+      std::array<double, 2> a;  // θ̈d, rad/s²
+      if (profiled) {
+        const double m0 = h * c0.omega, m1 = h * c1.omega;  // rad per unit s
+        d = {c0.theta, m0, 3 * (c1.theta - c0.theta) - 2 * m0 - m1,
+             2 * (c0.theta - c1.theta) + m0 + m1};
+        v = {d[1] / h, 2 * d[2] / h, 3 * d[3] / h};
+        a = {2 * d[2] / (h * h), 6 * d[3] / (h * h)};
+      } else {
+        d = {c0.theta, c1.theta - c0.theta, 0, 0};
+        v = {c0.omega, c1.omega - c0.omega, 0};
+        a = {c0.accel, c1.accel - c0.accel};
+      }
+      // e0 = ∫e1 dt from the step's start, e1 = θ − θd (K(20), K(22)), at s: rad·s.
+      auto e0_at = [&](double x) {
+        const double rotor = theta0 * x + 0.5 * omega * h * x * x;
+        const double command = x * (d[0] + x * (d[1] / 2 + x * (d[2] / 3 + x * d[3] / 4)));
+        return unit.e0 + h * (rotor - command);
+      };
+      // K(24)'s τd, a quartic in s, through five samples of the law itself at the lagged times.
+      std::array<double, 5> samples;
+      for (int k = 0; k < 5; ++k) {
+        const double x = 0.25 * k - lag / h;
+        const MechanicalSample in{.command = {.theta = d[0] + x * (d[1] + x * (d[2] + x * d[3])),
+                                              .omega = v[0] + x * (v[1] + x * v[2]),
+                                              .accel = a[0] + x * a[1]},
+                                  .feedback = {.theta = theta0 + omega * h * x, .omega = omega}};
+        samples[k] = law.DesiredTorque(in, law.Track(in), e0_at(x));
+      }
+      const std::array<double, 5> torque = QuarticThrough(samples);  // N·m
+      // The law's voltage in the rotor's frame, j·(R'/Km')·τd + j·Km'·ω, bounded over the step.
+      const double r_nominal = constants_.resistance, km_nominal = constants_.torque_constant;
+      double largest_torque = 0;  // N·m, >= max |τd|
+      for (double q : torque) largest_torque += std::abs(q);
+      const double largest_voltage =
+          r_nominal / km_nominal * largest_torque + km_nominal * std::abs(omega);  // V
+      const double L = motor.inductance;                                           // H
+      const double electrical = constants_.rotor_teeth * omega;                    // Ω, rad/s
+      const PhaseVector mu(motor.resistance / L * h, electrical * h);              // (F-1)
+      // (A step over kFeedForwardMaxPieces pieces, a rotor turning tens of electrical cycles per
+      // step, runs its interrupts: bounded by the event limit.)
+      if (largest_voltage <= stage_.LinearRadius() &&
+          std::abs(mu) <= kFeedForwardMaxPieces * kFeedForwardPieceMu) {
+        const PhaseVector held = Sinc(0.5 * electrical * period) * UnitPhasor(-electrical * lag);
+        const PhaseVector j(0, 1);
+        const PhaseVector per_torque = h / L * held * j * (r_nominal / km_nominal);  // (F-1)
+        ForcingPolynomial g;
+        for (int m = 0; m < 5; ++m) g[m] = per_torque * torque[m];
+        g[0] += h / L * j * omega * (held * km_nominal - motor.torque_constant);
+        const PhaseVector start = s->current();
+        const RotatingFrameStep r =
+            AdvanceRotatingFrame(mu, g, std::conj(s->rotor_phasor()) * start);
+        const PhaseVector current = r.end * phasor1;
+        // S-8: copper and mechanical from the solution, the input from the balance it meets.
+        const double copper = motor.resistance * h * r.norm_integral;
+        const double mechanical = motor.torque_constant * omega * h * r.integral.imag();
+        s->energy_copper += copper;
+        step_copper += copper;
+        s->energy_mechanical += mechanical;
+        s->energy_input += copper + mechanical + 0.5 * L * (std::norm(current) - std::norm(start));
+        const double torque_end = torque[0] + torque[1] + torque[2] + torque[3] + torque[4];
+        const PhaseVector voltage = held * j *
+                                    (r_nominal / km_nominal * torque_end + km_nominal * omega) *
+                                    phasor1;  // V, at t1
+        const PhaseVector reference =
+            j * (torque_end / km_nominal) * phasor1 * UnitPhasor(-electrical * lag);  // K(27)
+        unit.e0 = e0_at(1);
+        Pack(unit, s->unit.data());
+        s->current_a = current.real();
+        s->current_b = current.imag();
+        s->voltage_a = voltage.real();
+        s->voltage_b = voltage.imag();
+        s->current_ref_a = reference.real();
+        s->current_ref_b = reference.imag();
+        s->pending = 0;
+        s->theta_meas = EncoderAngle(theta1, config_.encoder_counts);
+        s->omega_est = omega;
+        fed_forward = true;
+      }
+    }
+  }
   if constexpr (IdealSourceUnit<C>) {
     const PhaseVector i = controller.setpoint.Phase(constants_, command_at(t1).theta);
     s->current_a = s->current_ref_a = i.real();
@@ -601,7 +709,7 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
       s->theta_meas = EncoderAngle(theta1, config_.encoder_counts);
       s->omega_est = omega;
     }
-  } else {
+  } else if (!fed_forward) {
     typename C::State unit = Unpack<typename C::State>(s->unit.data());
     const double period = config_.isr_period;  // T
     // Tick times and step times meant to coincide differ by round-off only: of the period, and of

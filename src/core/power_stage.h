@@ -2,6 +2,8 @@
 #ifndef MJSTEPPER_CORE_POWER_STAGE_H_
 #define MJSTEPPER_CORE_POWER_STAGE_H_
 
+#include <numbers>
+
 #include "core/motor.h"
 
 namespace mjstepper {
@@ -30,6 +32,11 @@ struct PowerStage {
   /// max(va, vb, 0) − min(va, vb, 0) <= Vbus and beyond that scales (va, vb) down keeping their
   /// direction (S-14, over-modulation).
   BridgeOutput Apply(PhaseVector request) const;
+  /// The largest |va + j·vb| that Apply never cuts, V: Vbus for two H-bridges (|va|, |vb| <=
+  /// |v|), Vbus/√2 for SVPWM (max(va, vb, 0) − min(va, vb, 0) <= √2·|v|).
+  double LinearRadius() const {
+    return kind == PowerStageKind::kTwoHBridges ? bus_voltage : bus_voltage / std::numbers::sqrt2;
+  }
 
   /// S-14, T(14)-(17): vo = Vbus/2 − (max(va,vb,0) + min(va,vb,0))/2, vα = va + vo, vβ = vb + vo,
   /// vγ = vo, for phase voltages inside the linear range.

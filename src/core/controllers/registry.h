@@ -156,6 +156,12 @@ concept FieldOrientedUnit = requires(const C& u, const DriveConstants& k, const 
   u.loop;
 };
 
+/// A position law feeding its voltage forward with no current feedback (Kim's STMMS, K(28)): its
+/// averaged form is the law's continuous voltage, a polynomial in the rotor's frame over a step, on
+/// the winding's exact solution (averaged_feed_forward.h).
+template <class C>
+concept FeedForwardUnit = std::same_as<C, Stmms>;
+
 /// An ideal source: no clock, no windings; its averaged form is itself.
 template <class C>
 concept IdealSourceUnit = requires {
@@ -163,10 +169,11 @@ concept IdealSourceUnit = requires {
 };
 
 /// A unit with an averaged form: a chopper (averaged_bridge.h), a SpanUnit, a rotating voltage, a
-/// PI current loop (in the command's frame or the encoder's) or an ideal source.
+/// PI current loop (in the command's frame or the encoder's), a feed-forward law or an ideal
+/// source.
 template <class C>
 concept AveragedUnit = SwitchingUnit<C> || SpanUnit<C> || RotatingVoltageUnit<C> ||
-    CurrentLoopUnit<C> || FieldOrientedUnit<C> || IdealSourceUnit<C>;
+    CurrentLoopUnit<C> || FieldOrientedUnit<C> || FeedForwardUnit<C> || IdealSourceUnit<C>;
 
 /// Whether a controller has an averaged form (fidelity = averaged).
 inline bool HasAveragedForm(const Controller& c) {

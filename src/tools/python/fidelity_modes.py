@@ -18,6 +18,8 @@ temporary model at each step of STEPS and in each mode, and compared with the sa
     0.5 s to 0.8 s in full steps. Target 5 %.
   - Voltage microstepping on Kim's set-up (models/kim_stmms.xml with drive voltage_microstep at
     a 20 kHz clock): the mean load angle over the cruise, 1-2 s. Target 2 %.
+  - Kim's STMMS on his set-up (models/kim_stmms.xml: 1 MHz, no current feedback): the peak
+    tracking error |e1| over the trajectory's first 3 s. Target 2 %.
   - The CoreXY after a move (models/corexy.xml; tests/tools/averaged_printer_test.cc's move, 1600
     microsteps on both motors and one more 2 ms after it, so that it stops where both phases
     chop): stepper_a's rotor speed RMS from 0.35 s (the reference lacks any oscillation; a mode
@@ -176,6 +178,17 @@ def kim_voltage(h, coupling, fidelity, tmp, tag):
     return mean(angle)
 
 
+def kim_stmms(h, coupling, fidelity, tmp, tag):
+    """Kim's STMMS on his trajectory (models/kim_stmms.xml, 1 MHz): the peak tracking error |e1|."""
+    model = write_model(read(os.path.join(ROOT, "models", "kim_stmms.xml")), h, tmp, tag)
+    log = os.path.join(tmp, f"{tag}.csv")
+    cli(["run", model, "--allow-coarse", "--duration", "3", "--quiet", "--log", log,
+         "--log-every", str(max(1, round(1e-4 / h))), "--ctrl", "shaft=constant(15.70796rad)",
+         "--set", f"shaft.coupling={coupling}", "--set", f"shaft.fidelity={fidelity}"], tmp)
+    (error,) = columns(log, ["shaft:position_error"])
+    return max(abs(e) for e in error)
+
+
 # The CoreXY move (tests/tools/averaged_printer_test.cc): X by 20 mm at 100 mm/s and 3000 mm/s²
 # in 1600 microsteps from 0.05 s, and one more 2 ms after it.
 MOVE_START, MOVE_SPEED, MOVE_ACCEL, MOVE_DISTANCE, STEPS_PER_MM = 0.05, 100.0, 3000.0, 20.0, 80
@@ -256,6 +269,8 @@ MEASURES = [
      "full steps"),
     ("voltage microstepping (Kim): load angle in cruise", 0.02, kim_voltage,
      ("switching", "averaged"), "rad"),
+    ("Kim's STMMS: peak tracking error |e1|", 0.02, kim_stmms, ("switching", "averaged"),
+     "rad"),
     ("CoreXY after a move: ringing less the sensor's noise", 0.05, None,
      ("switching", "averaged"), "mm/s²"),
     ("CoreXY after a move: rotor speed RMS (pass: <= 2× the reference)", None, None,
