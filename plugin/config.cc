@@ -221,12 +221,11 @@ constexpr AttributeSpec kAttrFidelity{
     "(`src/core/averaged_current_loop.h`), exact over each step; where the bus cuts the request "
     "it runs the interrupts. `servo` and `identification`: the same loop in the encoder's frame, "
     "the position loop of T(19) still run at each of its own ticks. `ideal_current` has no "
-    "clock: it is the same in both. `stmms`: K(28)'s voltage from the law's continuous τd, a "
-    "polynomial over each step, lagging by D + T/2, on the exact winding solution "
-    "(`src/core/averaged_feed_forward.h`), with `encoder_counts` 0 and `speed_feedback` exact; "
-    "where the voltage might leave the stage's linear range it runs the interrupts. Not for "
-    "`high_gain_foc`, whose current feedback at ρ reads the measured current "
-    "(`docs/coupling.md`)."};
+    "clock: it is the same in both. `stmms` and `foc`: K(28)'s or K(33)'s voltage from the law's "
+    "continuous τd, a polynomial over each step, lagging by D + T/2, on the exact winding "
+    "solution in the rotor's frame (`src/core/averaged_feed_forward.h`), with `encoder_counts` 0, "
+    "`speed_feedback` exact and (`foc`) `foc_derivative` analytic; where the voltage might leave "
+    "the stage's linear range it runs the interrupts."};
 
 const std::vector<const AttributeSpec*>& DriveAttributes() {
   static const std::vector<const AttributeSpec*> list = {&kAttrMotor,
@@ -427,12 +426,6 @@ DriveConfig Parse(const AttributeSource& a) {
                                  .bus_voltage = c.bus_voltage};
   c.controller = MakeController(drive, a, c.motor, constants);
   if (a.Choice(kAttrFidelity, "switching", {"switching", "averaged"}) == "averaged") {
-    if (!HasAveragedForm(c.controller)) {
-      ThrowBad(kAttrFidelity, "averaged",
-               fmt::format("has no averaged form for drive {} yet ({} have one); use fidelity = "
-                           "switching",
-                           drive, fmt::join(AveragedControllerNames(), ", ")));
-    }
     if (const std::size_t harmonics = LoopSetpointHarmonics(c.controller);
         harmonics > kAveragedLoopHarmonics) {
       ThrowBad(kAttrDamping, a.Raw(kAttrDamping).value_or(""),
@@ -441,19 +434,27 @@ DriveConfig Parse(const AttributeSource& a) {
                            harmonics, kAveragedLoopHarmonics));
     }
     c.fidelity = Fidelity::kAveraged;
-    // The averaged feed-forward law reads the rotor's exact angle and speed
-    // (averaged_feed_forward.h).
-    if (std::holds_alternative<Stmms>(c.controller)) {
+    // Kim's laws averaged read the rotor's exact angle and speed (averaged_feed_forward.h).
+    if (std::holds_alternative<Stmms>(c.controller) ||
+        std::holds_alternative<HighGainFoc>(c.controller)) {
       if (c.encoder_counts != 0) {
         ThrowBad(kAttrEncoderCounts, fmt::format("{}", c.encoder_counts),
-                 "must be 0 with fidelity = averaged on drive stmms, whose averaged law reads the "
-                 "rotor's exact angle (or use fidelity = switching)");
+                 fmt::format("must be 0 with fidelity = averaged on drive {}, whose averaged law "
+                             "reads the rotor's exact angle (or use fidelity = switching)",
+                             drive));
       }
       if (c.speed_feedback.value_or(SpeedFeedback::kExact) != SpeedFeedback::kExact) {
         ThrowBad(kAttrSpeedFeedback, "estimate",
-                 "must be exact with fidelity = averaged on drive stmms, whose averaged law reads "
-                 "the rotor's exact speed (or use fidelity = switching)");
+                 fmt::format("must be exact with fidelity = averaged on drive {}, whose averaged "
+                             "law reads the rotor's exact speed (or use fidelity = switching)",
+                             drive));
       }
+    }
+    if (const auto* foc = std::get_if<HighGainFoc>(&c.controller);
+        foc != nullptr && foc->derivative != HighGainFoc::Derivative::kAnalytic) {
+      ThrowBad(kAttrFocDerivative, "numeric",
+               "must be analytic with fidelity = averaged: a difference over one control period "
+               "is the clock itself (or use fidelity = switching)");
     }
   }
   c.heat = ParseHeat(a, *preset, drive);

@@ -1,5 +1,6 @@
-// A feed-forward voltage law averaged: the fidelity = averaged form of Kim's STMMS (SPEC §11,
-// Kim 2016 K(20)-(32)), whose interrupts (1 MHz in Kim's simulation) apply
+// Kim's position laws averaged: the fidelity = averaged form of his STMMS (SPEC §11, Kim 2016
+// K(20)-(32)) and of his high-gain FOC (K(33)-(34), F-3 below). The STMMS's interrupts (1 MHz in
+// Kim's simulation) apply
 //   v[k] = R·id[k] + j·Km·ω·e^{jx[k]},   id = j·(τd/Km)·e^{jx},                          K(27)-(28)
 // with τd of K(24) from the sampled rotor and command, and no current feedback.
 //
@@ -22,11 +23,21 @@
 // tests/core/averaged_feed_forward_test.cc); a step with |μ| > kFeedForwardPieceMu is cut into
 // pieces.
 //
+// Kim's high-gain FOC (K(33)) adds current feedback, v = R'·i + e' + L'·(i̇d + ρ·(id − i)), with
+// i̇d's ω̇ from the current, ω̇ = (Km'·Im(e^{−jx}·i) − B·ω − τl)/J, and τ̇d linear in ω̇. In the
+// rotor's frame the law's terms in I are R'·I and −L'·ρ·I (read D + T/2 late in the stator, so
+// turned by c) and a term in Im I; the winding is then a real 2×2 system on (Re I, Im I):
+//   D·dI/dt = A·I + F(t),  dI/ds = M·I + G(s),  M = h·D⁻¹·A,  G = h·D⁻¹·F                (F-3)
+// with D = L, or for the FOC L plus the first-order delay of its current feedback (the current it
+// reads is I − (D + T/2)·dI/dt). (F-2) holds with the φ functions of M.
+//
 // Where the law's voltage might leave the power stage's linear range (a bound on |v| over the
-// step) the closed form does not hold; the drive runs that step's interrupts instead (drive.cc).
+// step for the STMMS; its value at the step's ends within kFeedForwardMargin of the range for the
+// FOC) the closed form does not hold; the drive runs that step's interrupts instead (drive.cc).
 #ifndef MJSTEPPER_CORE_AVERAGED_FEED_FORWARD_H_
 #define MJSTEPPER_CORE_AVERAGED_FEED_FORWARD_H_
 
+#include <Eigen/Core>
 #include <array>
 
 #include "core/motor.h"
@@ -41,6 +52,11 @@ inline constexpr double kFeedForwardPieceMu = 4.0;
 /// about 40 electrical cycles in the step); beyond, it runs the step's interrupts.
 inline constexpr double kFeedForwardMaxPieces = 64;
 
+/// The share of the stage's linear range a FOC step's voltage may reach at its start and end for
+/// the closed form to be taken: its current feedback makes |v| over the step known only there, so
+/// a tenth is left for what it does between (a heuristic, not a bound; the STMMS's is a bound).
+inline constexpr double kFeedForwardMargin = 0.9;
+
 /// G(s) of (F-1): coefficients g0..g4 of s^0..s^4.
 using ForcingPolynomial = std::array<PhaseVector, 5>;
 
@@ -53,6 +69,12 @@ struct RotatingFrameStep {
 
 /// Solves (F-1) from I(0) = start over s ∈ [0, 1] exactly (pieces of |μ| <= kFeedForwardPieceMu).
 RotatingFrameStep AdvanceRotatingFrame(PhaseVector mu, const ForcingPolynomial& g,
+                                       PhaseVector start);
+
+/// The same for dI/ds = M·I + G(s) with I read as (Re I, Im I) and M any real 2×2 matrix (F-3:
+/// a law that reads Im(I), the current's torque, as the high-gain FOC's does); pieces of ‖M‖∞ <=
+/// kFeedForwardPieceMu.
+RotatingFrameStep AdvanceRotatingFrame(const Eigen::Matrix2d& m, const ForcingPolynomial& g,
                                        PhaseVector start);
 
 /// The quartic through samples at s = 0, 1/4, 1/2, 3/4, 1: its coefficients of s^0..s^4.

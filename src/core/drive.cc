@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -83,27 +84,34 @@ void Validate(const DriveConfig& c) {
   Require(c.compute_delay >= 0 && c.compute_delay < c.isr_period, "compute_delay", c.compute_delay,
           "must be >= 0 and < isr_period (s)");
   Require(c.rk4_step > 0, "rk4_step", c.rk4_step, "must be > 0 (s)");
-  Require(c.fidelity == Fidelity::kSwitching ||
-              (HasAveragedForm(c.controller) && c.solver == WindingSolver::kExact),
+  Require(c.fidelity == Fidelity::kSwitching || c.solver == WindingSolver::kExact,
           "fidelity (0: switching, 1: averaged)", static_cast<int>(c.fidelity),
-          "averaged needs a drive with an averaged form (a chopper, StealthChop, voltage "
-          "microstepping, the PI drive, the servo, identification, Kim's STMMS, an ideal source) "
-          "on the exact winding solver");
+          "averaged needs the exact winding solver");
   Require(c.transmission.efficiency > 0 && c.transmission.efficiency <= 1, "efficiency",
           c.transmission.efficiency, "must be in (0, 1]");
   Require(c.transmission.backdrive_efficiency > 0 && c.transmission.backdrive_efficiency <= 1,
           "backdrive_efficiency", c.transmission.backdrive_efficiency, "must be in (0, 1]");
   Require(c.encoder_counts >= 0, "encoder_counts", c.encoder_counts, "must be >= 0 (0: ideal)");
-  // The averaged feed-forward law (averaged_feed_forward.h) reads the rotor's own angle and speed.
-  const bool fed_forward = std::visit(
-      [](const auto& unit) { return FeedForwardUnit<std::decay_t<decltype(unit)>>; }, c.controller);
-  Require(c.fidelity != Fidelity::kAveraged || !fed_forward || c.encoder_counts == 0,
-          "encoder_counts", c.encoder_counts,
+  // Kim's laws averaged (averaged_feed_forward.h) read the rotor's own angle and speed, and the
+  // FOC's derivative must be its continuous one.
+  const bool kim_law = std::visit(
+      [](const auto& unit) {
+        using U = std::decay_t<decltype(unit)>;
+        return FeedForwardUnit<U> || HighGainFocUnit<U>;
+      },
+      c.controller);
+  const bool kim_averaged = c.fidelity == Fidelity::kAveraged && kim_law;
+  Require(!kim_averaged || c.encoder_counts == 0, "encoder_counts", c.encoder_counts,
           "must be 0 with fidelity = averaged: the averaged law reads the rotor's exact angle");
-  Require(c.fidelity != Fidelity::kAveraged || !fed_forward ||
-              c.speed_feedback.value_or(SpeedFeedback::kExact) == SpeedFeedback::kExact,
-          "speed_feedback (0: estimate, 1: exact)", 0,
-          "must be exact with fidelity = averaged: the averaged law reads the rotor's exact speed");
+  Require(
+      !kim_averaged || c.speed_feedback.value_or(SpeedFeedback::kExact) == SpeedFeedback::kExact,
+      "speed_feedback (0: estimate, 1: exact)", 0,
+      "must be exact with fidelity = averaged: the averaged law reads the rotor's exact speed");
+  const auto* foc = std::get_if<HighGainFoc>(&c.controller);
+  Require(c.fidelity != Fidelity::kAveraged || foc == nullptr ||
+              foc->derivative == HighGainFoc::Derivative::kAnalytic,
+          "foc_derivative (0: analytic, 1: numeric)", 1,
+          "must be analytic with fidelity = averaged: a difference over one period is its clock");
   Require(c.velocity_cutoff > 0 && std::isfinite(c.velocity_cutoff), "velocity_cutoff",
           c.velocity_cutoff, "must be finite and > 0 (Hz)");
   Require(c.input != InputMode::kSteps || Microsteps(c.controller) > 0, "microsteps",
@@ -534,89 +542,190 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
     return {.theta = command, .omega = omega_cmd};
   };
 
-  // SPEC §11, a feed-forward law averaged (Kim's STMMS; averaged_feed_forward.h): the law's
-  // continuous voltage over the whole step on the winding's exact solution, (F-1)-(F-2); no
-  // interrupts, whatever the clock. A step whose voltage might leave the stage's linear range runs
-  // its interrupts instead (the switching form below), so that the bus still cuts it.
+  // SPEC §11, Kim's position law averaged (averaged_feed_forward.h): the law's continuous voltage
+  // over the whole step on the winding's exact solution in the rotor's frame, (F-1)-(F-3); no
+  // interrupts, whatever the clock. The law acts D + T/2 late (its staircase's lag), so a piece
+  // [ta, tb] of the step reads the command and rotor over [ta − D − T/2, tb − D − T/2]; a step is
+  // cut where the profile's polynomial changes, so that each piece's command is one polynomial.
+  // A piece whose voltage might leave the stage's linear range sends the whole step to its
+  // interrupts instead (the switching form below), so that the bus still cuts it.
   bool fed_forward = false;
-  if constexpr (FeedForwardUnit<C>) {
+  if constexpr (FeedForwardUnit<C> || HighGainFocUnit<C>) {
     if (config_.fidelity == Fidelity::kAveraged && h > 0) {
       typename C::State unit = Unpack<typename C::State>(s->unit.data());
       const KimMechanical& law = controller.mechanical;
       const double period = config_.isr_period;                 // T, s
       const double lag = config_.compute_delay + 0.5 * period;  // D + T/2, s
-      // The command in s = (t − t0)/h: θd as a cubic (a profile's quadratic pieces exactly, by
-      // their Hermite cubic; a ctrl's constant or line as command_at gives it), θ̇d and θ̈d beside
-      // it (a profile's by differentiation; a ctrl's as command_at gives them).
-      const CommandSample c0 = command_at(t0), c1 = command_at(t1);
-      std::array<double, 4> d;  // θd, rad, coefficients of s^0..s^3
-      std::array<double, 3> v;  // θ̇d, rad/s
-      std::array<double, 2> a;  // θ̈d, rad/s²
-      if (profiled) {
-        const double m0 = h * c0.omega, m1 = h * c1.omega;  // rad per unit s
-        d = {c0.theta, m0, 3 * (c1.theta - c0.theta) - 2 * m0 - m1,
-             2 * (c0.theta - c1.theta) + m0 + m1};
-        v = {d[1] / h, 2 * d[2] / h, 3 * d[3] / h};
-        a = {2 * d[2] / (h * h), 6 * d[3] / (h * h)};
-      } else {
-        d = {c0.theta, c1.theta - c0.theta, 0, 0};
-        v = {c0.omega, c1.omega - c0.omega, 0};
-        a = {c0.accel, c1.accel - c0.accel};
-      }
-      // e0 = ∫e1 dt from the step's start, e1 = θ − θd (K(20), K(22)), at s: rad·s.
-      auto e0_at = [&](double x) {
-        const double rotor = theta0 * x + 0.5 * omega * h * x * x;
-        const double command = x * (d[0] + x * (d[1] / 2 + x * (d[2] / 3 + x * d[3] / 4)));
-        return unit.e0 + h * (rotor - command);
-      };
-      // K(24)'s τd, a quartic in s, through five samples of the law itself at the lagged times.
-      std::array<double, 5> samples;
-      for (int k = 0; k < 5; ++k) {
-        const double x = 0.25 * k - lag / h;
-        const MechanicalSample in{.command = {.theta = d[0] + x * (d[1] + x * (d[2] + x * d[3])),
-                                              .omega = v[0] + x * (v[1] + x * v[2]),
-                                              .accel = a[0] + x * a[1]},
-                                  .feedback = {.theta = theta0 + omega * h * x, .omega = omega}};
-        samples[k] = law.DesiredTorque(in, law.Track(in), e0_at(x));
-      }
-      const std::array<double, 5> torque = QuarticThrough(samples);  // N·m
-      // The law's voltage in the rotor's frame, j·(R'/Km')·τd + j·Km'·ω, bounded over the step.
       const double r_nominal = constants_.resistance, km_nominal = constants_.torque_constant;
-      double largest_torque = 0;  // N·m, >= max |τd|
-      for (double q : torque) largest_torque += std::abs(q);
-      const double largest_voltage =
-          r_nominal / km_nominal * largest_torque + km_nominal * std::abs(omega);  // V
-      const double L = motor.inductance;                                           // H
-      const double electrical = constants_.rotor_teeth * omega;                    // Ω, rad/s
-      const PhaseVector mu(motor.resistance / L * h, electrical * h);              // (F-1)
-      // (A step over kFeedForwardMaxPieces pieces, a rotor turning tens of electrical cycles per
-      // step, runs its interrupts: bounded by the event limit.)
-      if (largest_voltage <= stage_.LinearRadius() &&
-          std::abs(mu) <= kFeedForwardMaxPieces * kFeedForwardPieceMu) {
-        const PhaseVector held = Sinc(0.5 * electrical * period) * UnitPhasor(-electrical * lag);
-        const PhaseVector j(0, 1);
-        const PhaseVector per_torque = h / L * held * j * (r_nominal / km_nominal);  // (F-1)
-        ForcingPolynomial g;
-        for (int m = 0; m < 5; ++m) g[m] = per_torque * torque[m];
-        g[0] += h / L * j * omega * (held * km_nominal - motor.torque_constant);
-        const PhaseVector start = s->current();
-        const RotatingFrameStep r =
-            AdvanceRotatingFrame(mu, g, std::conj(s->rotor_phasor()) * start);
-        const PhaseVector current = r.end * phasor1;
-        // S-8: copper and mechanical from the solution, the input from the balance it meets.
-        const double copper = motor.resistance * h * r.norm_integral;
-        const double mechanical = motor.torque_constant * omega * h * r.integral.imag();
-        s->energy_copper += copper;
-        step_copper += copper;
-        s->energy_mechanical += mechanical;
-        s->energy_input += copper + mechanical + 0.5 * L * (std::norm(current) - std::norm(start));
+      const double l_nominal = constants_.inductance;            // H, the law's
+      const double L = motor.inductance;                         // H
+      const double electrical = constants_.rotor_teeth * omega;  // Ω, rad/s
+      const PhaseVector held = Sinc(0.5 * electrical * period) * UnitPhasor(-electrical * lag);
+      const PhaseVector j(0, 1);
+      const double radius = stage_.LinearRadius();  // V
+      PhaseVector current = s->current();           // A, stationary frame
+      const PhaseVector start = current;
+      IntervalEnergy energy;
+      PhaseVector voltage;             // V, the law's at the last piece's end
+      std::array<double, 5> torque{};  // τd of the last piece, N·m, in its s
+      double piece_start = t0;
+      bool linear = true;
+      while (linear && piece_start < t1) {
+        double piece_end = t1;
+        if (profiled) {  // the profile's next change, where the lagged law meets it
+          const double change = config_.profile.NextBreak(plan, piece_start - lag) + lag;
+          if (change < t1 - 1e-9 * h) piece_end = change;
+        }
+        const double hp = piece_end - piece_start;  // s
+        const double from = piece_start - lag;      // the law's time at s = 0
+        // The command over the law's [from, from + hp] in s: θd a cubic (a profile's piece
+        // exactly, by its Hermite cubic; a ctrl's constant or line as command_at gives it), θ̇d,
+        // θ̈d and θ⃛d beside it.
+        const CommandSample c0 = command_at(from), c1 = command_at(from + hp);
+        std::array<double, 4> d;  // θd, rad, coefficients of s^0..s^3
+        std::array<double, 3> v;  // θ̇d, rad/s
+        std::array<double, 2> a;  // θ̈d, rad/s²
+        double jerk = 0;          // θ⃛d, rad/s³
+        if (profiled) {
+          const double m0 = hp * c0.omega, m1 = hp * c1.omega;  // rad per unit s
+          d = {c0.theta, m0, 3 * (c1.theta - c0.theta) - 2 * m0 - m1,
+               2 * (c0.theta - c1.theta) + m0 + m1};
+          v = {d[1] / hp, 2 * d[2] / hp, 3 * d[3] / hp};
+          a = {2 * d[2] / (hp * hp), 6 * d[3] / (hp * hp)};
+          jerk = 6 * d[3] / (hp * hp * hp);
+        } else {
+          d = {c0.theta, c1.theta - c0.theta, 0, 0};
+          v = {c0.omega, c1.omega - c0.omega, 0};
+          a = {c0.accel, c1.accel - c0.accel};
+        }
+        const double rotor0 = theta0 + omega * (from - t0);  // rad, the rotor at s = 0
+        // e0 = ∫e1 dt over the law's time, e1 = θ − θd (K(20), K(22)), at s: rad·s.
+        const double e0_start = unit.e0;
+        auto e0_at = [&](double x) {
+          const double rotor = rotor0 * x + 0.5 * omega * hp * x * x;
+          const double command = x * (d[0] + x * (d[1] / 2 + x * (d[2] / 3 + x * d[3] / 4)));
+          return e0_start + hp * (rotor - command);
+        };
+        // K(24)'s τd, a quartic in s, through five samples of the law itself; for the FOC also
+        // K(33)'s τ̇d without its ω̇ term, and that term's gain.
+        std::array<double, 5> torque_samples, rate_samples{};
+        double rate_per_accel = 0;  // ∂τ̇d/∂ω̇, N·m·s
+        for (int k = 0; k < 5; ++k) {
+          const double x = 0.25 * k;
+          const MechanicalSample in{.command = {.theta = d[0] + x * (d[1] + x * (d[2] + x * d[3])),
+                                                .omega = v[0] + x * (v[1] + x * v[2]),
+                                                .accel = a[0] + x * a[1],
+                                                .jerk = jerk},
+                                    .feedback = {.theta = rotor0 + omega * hp * x, .omega = omega}};
+          const KimMechanical::Errors e = law.Track(in);
+          torque_samples[k] = law.DesiredTorque(in, e, e0_at(x));
+          if constexpr (HighGainFocUnit<C>) {
+            rate_samples[k] = controller.TorqueRate(in, e, 0.0);
+            if (k == 0) rate_per_accel = controller.TorqueRate(in, e, 1.0) - rate_samples[0];
+          }
+        }
+        torque = QuarticThrough(torque_samples);                          // N·m
+        const std::array<double, 5> rate = QuarticThrough(rate_samples);  // N·m/s
+        // L·dI/dt = L·(α·I + β·Im I) + F(t), F a quartic (V): (F-1) for the STMMS (β = 0), (F-3)
+        // for the FOC, whose ρ-feedback and ω̇ read the current.
+        PhaseVector alpha(-motor.resistance / L, -electrical), beta(0, 0);  // 1/s
+        ForcingPolynomial forcing;                                          // F, V
+        if constexpr (FeedForwardUnit<C>) {  // K(28): v = R'·id + e'
+          for (int m = 0; m < 5; ++m) forcing[m] = held * j * (r_nominal / km_nominal) * torque[m];
+        } else {  // K(33): v = R'·i + e' + L'·(i̇d + ρ·(id − i)), i̇d with ω̇ from the current
+          const double rho = controller.rho;  // 1/s
+          // (R'·i − L'·ρ·i, the current read D + T/2 earlier in the stator: e^{−jΩ(D+T/2)}.)
+          alpha += held * (r_nominal - l_nominal * rho) / L;
+          beta = held * j * l_nominal * rate_per_accel / (law.inertia * L);
+          const PhaseVector per = held * j * (l_nominal / km_nominal);  // V per N·m/s
+          for (int m = 0; m < 5; ++m) {
+            forcing[m] = per * (rate[m] + PhaseVector(rho, electrical) * torque[m]);
+          }
+          forcing[0] -=
+              per * rate_per_accel * (law.damping * omega + law.load_torque) / law.inertia;
+        }
+        forcing[0] += j * omega * (held * km_nominal - motor.torque_constant);
+        // On (Re I, Im I): D·dI/dt = A·I + F, A = L·(α·I + β·Im I). The FOC's feedback reads the
+        // current D + T/2 earlier, I − (D + T/2)·dI/dt to first order, which moves those terms
+        // into D.
+        Eigen::Matrix2d weight, slope;  // D (H), A (H/s)
+        slope << alpha.real(), -alpha.imag() + beta.real(), alpha.imag(),
+            alpha.real() + beta.imag();
+        slope *= L;
+        weight = L * Eigen::Matrix2d::Identity();
+        if constexpr (HighGainFocUnit<C>) {
+          const PhaseVector late = lag * held * (r_nominal - l_nominal * controller.rho);  // H
+          Eigen::Matrix2d times_late;  // late·I on (Re I, Im I)
+          times_late << late.real(), -late.imag(), late.imag(), late.real();
+          weight += times_late;
+          weight(0, 1) += lag * L * beta.real();
+          weight(1, 1) += lag * L * beta.imag();
+        }
+        const Eigen::Matrix2d inverse = weight.inverse();   // 1/H
+        const Eigen::Matrix2d step = hp * inverse * slope;  // M of (F-1)
+        auto vec = [](PhaseVector z) { return Eigen::Vector2d(z.real(), z.imag()); };
+        // V(s) in the rotor's frame from I there: L·dI/dt + (R + jΩL)·I + j·Km·ω.
+        auto voltage_at = [&](PhaseVector frame_current, double x) {
+          PhaseVector f = 0;
+          for (int m = 4; m >= 0; --m) f = f * x + forcing[m];
+          const Eigen::Vector2d change = inverse * (slope * vec(frame_current) + vec(f));  // A/s
+          return L * PhaseVector(change(0), change(1)) +
+                 PhaseVector(motor.resistance, electrical * L) * frame_current +
+                 j * motor.torque_constant * omega;
+        };
+        const PhaseVector phasor_a =
+            s->rotor_phasor() * UnitPhasor(electrical * (piece_start - t0));
+        const PhaseVector phasor_b =
+            piece_end == t1 ? phasor1
+                            : s->rotor_phasor() * UnitPhasor(electrical * (piece_end - t0));
+        const PhaseVector start_frame = std::conj(phasor_a) * current;
+        // (A piece over kFeedForwardMaxPieces pieces, a rotor turning tens of electrical cycles
+        // in it, runs its interrupts: bounded by the event limit.)
+        const double norm = step.cwiseAbs().rowwise().sum().maxCoeff();
+        linear = norm <= kFeedForwardMaxPieces * kFeedForwardPieceMu;
+        if constexpr (FeedForwardUnit<C>) {
+          // |v| <= (R'/Km')·max|τd| + Km'·|ω| over the piece.
+          double largest_torque = 0;  // N·m, >= max |τd|
+          for (double q : torque) largest_torque += std::abs(q);
+          linear = linear &&
+                   r_nominal / km_nominal * largest_torque + km_nominal * std::abs(omega) <= radius;
+        } else {
+          linear = linear && std::abs(voltage_at(start_frame, 0)) <= kFeedForwardMargin * radius;
+        }
+        if (!linear) break;
+        ForcingPolynomial g;  // G = hp·D⁻¹·F
+        for (int m = 0; m < 5; ++m) {
+          const Eigen::Vector2d gm = hp * inverse * vec(forcing[m]);
+          g[m] = PhaseVector(gm(0), gm(1));
+        }
+        const RotatingFrameStep r = AdvanceRotatingFrame(step, g, start_frame);
+        if constexpr (HighGainFocUnit<C>) {
+          linear = std::abs(voltage_at(r.end, 1)) <= kFeedForwardMargin * radius;
+          if (!linear) break;
+        }
+        // S-8: copper and mechanical from the solution.
+        energy.copper += motor.resistance * hp * r.norm_integral;
+        energy.mechanical += motor.torque_constant * omega * hp * r.integral.imag();
+        voltage = voltage_at(r.end, 1) * phasor_b;
+        current = r.end * phasor_b;
+        unit.e0 = e0_at(1);
+        piece_start = piece_end;
+      }
+      if (linear) {
+        // S-8's input from the balance the solution meets.
+        s->energy_copper += energy.copper;
+        step_copper += energy.copper;
+        s->energy_mechanical += energy.mechanical;
+        s->energy_input +=
+            energy.copper + energy.mechanical + 0.5 * L * (std::norm(current) - std::norm(start));
         const double torque_end = torque[0] + torque[1] + torque[2] + torque[3] + torque[4];
-        const PhaseVector voltage = held * j *
-                                    (r_nominal / km_nominal * torque_end + km_nominal * omega) *
-                                    phasor1;  // V, at t1
         const PhaseVector reference =
             j * (torque_end / km_nominal) * phasor1 * UnitPhasor(-electrical * lag);  // K(27)
-        unit.e0 = e0_at(1);
+        if constexpr (HighGainFocUnit<C>) {
+          unit.previous_a = reference.real();
+          unit.previous_b = reference.imag();
+          unit.has_previous = 1;
+        }
         Pack(unit, s->unit.data());
         s->current_a = current.real();
         s->current_b = current.imag();

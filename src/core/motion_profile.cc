@@ -1,6 +1,7 @@
 #include "core/motion_profile.h"
 
 #include <cmath>
+#include <limits>
 
 namespace mjstepper {
 namespace {
@@ -42,6 +43,17 @@ CommandSample MotionProfile::Evaluate(const State& s, double t) const {
   return {.theta = s.target};
 }
 
+double MotionProfile::NextBreak(const State& s, double t) const {
+  if (s.t_end <= s.t0) return std::numeric_limits<double>::infinity();  // at rest
+  if (t < s.t0) return s.t0;
+  double end = s.t0;
+  for (const Segment& g : s.segments) {
+    end += g.duration;
+    if (g.duration > 0 && end > t && end < s.t_end) return end;
+  }
+  return t < s.t_end ? s.t_end : std::numeric_limits<double>::infinity();
+}
+
 std::array<MotionProfile::Segment, 7> MotionProfile::PlanSCurve(double distance) const {
   const double D = std::abs(distance), s = Sign(distance);
   const double A = max_accel, J = max_jerk;
@@ -56,9 +68,9 @@ std::array<MotionProfile::Segment, 7> MotionProfile::PlanSCurve(double distance)
     v = (-A / J + std::sqrt(A * A / (J * J) + 4 * D / A)) * A / 2;
     if (v < A * A / J) v = std::cbrt(D * D * J / 4);
   }
-  const double ap = std::min(A, std::sqrt(v * J));  // peak acceleration
-  const double tj = ap / J;                          // jerk phase
-  const double tc = std::max(0.0, v / ap - tj);      // constant-acceleration phase
+  const double ap = std::min(A, std::sqrt(v * J));              // peak acceleration
+  const double tj = ap / J;                                     // jerk phase
+  const double tc = std::max(0.0, v / ap - tj);                 // constant-acceleration phase
   const double tv = std::max(0.0, (D - ramp_distance(v)) / v);  // cruise
   return {{{tj, 0, s * J},
            {tc, s * ap, 0},

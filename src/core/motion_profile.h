@@ -25,10 +25,10 @@ enum class ProfileKind { kNone, kTrapezoid, kSCurve };
 
 struct MotionProfile {
   ProfileKind kind = ProfileKind::kNone;
-  double max_speed = 6.283185307179586;    ///< V, rad/s (rotor side), > 0
-  double max_accel = 12.566370614359172;   ///< A, rad/s², > 0
-  double max_jerk = 1000.0;                ///< Jm, rad/s³, > 0 (scurve)
-  double start_time = 0;                   ///< s: no move starts before this time
+  double max_speed = 6.283185307179586;   ///< V, rad/s (rotor side), > 0
+  double max_accel = 12.566370614359172;  ///< A, rad/s², > 0
+  double max_jerk = 1000.0;               ///< Jm, rad/s³, > 0 (scurve)
+  double start_time = 0;                  ///< s: no move starts before this time
 
   struct Segment {
     double duration = 0;  ///< s
@@ -51,6 +51,10 @@ struct MotionProfile {
 
   /// The command at time t (exact; holds the target after the plan's end).
   CommandSample Evaluate(const State& s, double t) const;
+
+  /// The first time after t (s) at which the plan's polynomial changes (its start, a segment's
+  /// end, its end), or +infinity.
+  double NextBreak(const State& s, double t) const;
 
   /// Called at the start of each simulation step [t0, t1] with the step's target: starts a new
   /// plan at max(t0, start_time) when the target changed and the profile allows it then.

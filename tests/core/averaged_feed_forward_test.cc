@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Core>
 #include <cmath>
 #include <complex>
 
@@ -52,6 +53,46 @@ TEST(AveragedFeedForward, TheRotorFrameSolutionIsTheWindingsOwn) {
     EXPECT_LT(std::abs(exact.end - fine.end), 1e-9 * std::abs(fine.end));
     EXPECT_LT(std::abs(exact.integral - fine.integral), 1e-9 * std::abs(fine.integral));
     EXPECT_NEAR(exact.norm_integral / fine.norm_integral, 1.0, std::abs(mu) > 1 ? 1e-8 : 1e-12);
+  }
+}
+
+// (F-3): a real 2×2 M that is no complex multiplication (the FOC's: the law reads Im I), against
+// the same integration on (Re I, Im I); one piece and, with ‖M‖ 9.6, three.
+TEST(AveragedFeedForward, TheRealTwoByTwoSolutionIsTheWindingsOwn) {
+  const ForcingPolynomial g = {PhaseVector(0.3, -0.2), PhaseVector(-1.1, 0.7),
+                               PhaseVector(2.0, 0.4), PhaseVector(-0.8, -1.5),
+                               PhaseVector(0.5, 0.9)};
+  const PhaseVector start(0.4, -0.25);
+  for (const double scale : {1.0, 4.0}) {
+    Eigen::Matrix2d m;
+    m << -0.6, 1.1, -0.3, -1.3;  // on (Re I, Im I)
+    m *= scale;
+    SCOPED_TRACE(scale);
+    // RK4 on y = (Re I, Im I, ∫Re I, ∫Im I, ∫|I|²).
+    using Y = Eigen::Matrix<double, 5, 1>;
+    auto slope = [&](double s, const Y& y) {
+      PhaseVector forcing = 0;
+      for (int k = 4; k >= 0; --k) forcing = forcing * s + g[k];
+      const Eigen::Vector2d i = y.head<2>();
+      const Eigen::Vector2d di = m * i + Eigen::Vector2d(forcing.real(), forcing.imag());
+      Y out;
+      out << di, i, i.squaredNorm();
+      return out;
+    };
+    Y y;
+    y << start.real(), start.imag(), 0, 0, 0;
+    const int n = 20000;
+    const double h = 1.0 / n;
+    for (int k = 0; k < n; ++k) {
+      const double s = k * h;
+      const Y k1 = slope(s, y), k2 = slope(s + h / 2, y + h / 2 * k1),
+              k3 = slope(s + h / 2, y + h / 2 * k2), k4 = slope(s + h, y + h * k3);
+      y += h / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
+    }
+    const RotatingFrameStep exact = AdvanceRotatingFrame(m, g, start);
+    EXPECT_LT(std::abs(exact.end - PhaseVector(y(0), y(1))), 1e-9 * std::hypot(y(0), y(1)));
+    EXPECT_LT(std::abs(exact.integral - PhaseVector(y(2), y(3))), 1e-9 * std::hypot(y(2), y(3)));
+    EXPECT_NEAR(exact.norm_integral / y(4), 1.0, 1e-8);
   }
 }
 

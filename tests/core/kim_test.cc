@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <cstring>
 #include <functional>
@@ -175,6 +176,24 @@ TEST(Kim, TrapezoidIsKimsTrajectory) {
   EXPECT_NEAR(p.Evaluate(s, 3.25).accel, -4 * pi, 1e-12);
   EXPECT_NEAR(s.t_end, 3.5, 1e-12);
   EXPECT_EQ(p.Evaluate(s, 3.7).theta, 5 * pi);
+}
+
+// The plan's polynomial changes at its start, at each segment's end and at its end: the times an
+// averaged Kim law cuts its steps at (averaged_feed_forward.h), here 0.5, 1.0, 3.0 and 3.5 s.
+TEST(Kim, TheTrapezoidsBreaksAreItsSegmentsEnds) {
+  const MotionProfile p{.kind = ProfileKind::kTrapezoid,
+                        .max_speed = kTwoPi,
+                        .max_accel = 2 * kTwoPi,
+                        .start_time = 0.5};
+  MotionProfile::State s = MotionProfile::Rest(0.0, 0.0);
+  EXPECT_EQ(p.NextBreak(s, 0.0), std::numeric_limits<double>::infinity());  // at rest
+  p.Update(&s, 0.49999, 0.50004, 5 * std::numbers::pi);
+  EXPECT_NEAR(p.NextBreak(s, 0.2), 0.5, 1e-12);
+  EXPECT_NEAR(p.NextBreak(s, 0.5), 1.0, 1e-12);
+  EXPECT_NEAR(p.NextBreak(s, 1.0), 3.0, 1e-12);
+  EXPECT_NEAR(p.NextBreak(s, 2.9), 3.0, 1e-12);
+  EXPECT_NEAR(p.NextBreak(s, 3.0), 3.5, 1e-12);
+  EXPECT_EQ(p.NextBreak(s, 3.5), std::numeric_limits<double>::infinity());
 }
 
 // The S-curve reaches the target at rest with |jerk| ≤ Jm, |θ̈| ≤ A, |θ̇| ≤ V, and its speed is

@@ -36,12 +36,7 @@ TickOutput HighGainFoc::Tick(const DriveConstants& k, const Input& in, const Pow
     const double torque_measured = k.torque_constant * (std::conj(phasor) * in.current).imag();
     const double omega_dot =
         (torque_measured - mech.damping * omega - mech.load_torque) / mech.inertia;
-    const double e1_ddot = omega_dot - in.command.accel;
-    const double e2_dot = e1_ddot + mech.k1p * e.e1_dot;
-    const double torque_dot =
-        mech.damping * omega_dot + mech.inertia * (in.command.jerk - mech.k1p * e1_ddot -
-                                                   mech.k0 * e.e1 - mech.k1 * e.e1_dot -
-                                                   mech.k2 * e2_dot);
+    const double torque_dot = TorqueRate(m, e, omega_dot);
     current_ref_dot = PhaseVector(0, 1.0 / k.torque_constant) * phasor *
                       PhaseVector(torque_dot, k.rotor_teeth * omega * torque);
   } else {
@@ -55,6 +50,16 @@ TickOutput HighGainFoc::Tick(const DriveConstants& k, const Input& in, const Pow
   const PhaseVector v = k.resistance * in.current + emf +
                         k.inductance * (current_ref_dot + rho * (current_ref - in.current));  // K(33)
   return {.bridge = stage.Apply(v), .current_ref = current_ref};
+}
+
+double HighGainFoc::TorqueRate(const MechanicalSample& in, const KimMechanical::Errors& e,
+                               double omega_dot) const {
+  const KimMechanical& mech = mechanical;
+  const double e1_ddot = omega_dot - in.command.accel;
+  const double e2_dot = e1_ddot + mech.k1p * e.e1_dot;
+  return mech.damping * omega_dot + mech.inertia * (in.command.jerk - mech.k1p * e1_ddot -
+                                                    mech.k0 * e.e1 - mech.k1 * e.e1_dot -
+                                                    mech.k2 * e2_dot);
 }
 
 PhaseVector HighGainFoc::Rest(const DriveConstants& k, const RestInput& in, State* s) const {

@@ -65,6 +65,10 @@ struct HighGainFoc {
                                     const DriveConstants& k);
   TickOutput Tick(const DriveConstants& k, const Input& in, const PowerStage& stage,
                   State* s) const;
+  /// τ̇d of the analytic derivative, N·m/s: B·ω̇ + J·(θ⃛d − k1p·ë1 − k0·e1 − k1·ė1 − k2·ė2),
+  /// given the rotor's acceleration ω̇ (rad/s²) as the controller's model has it.
+  double TorqueRate(const MechanicalSample& in, const KimMechanical::Errors& e,
+                    double omega_dot) const;
   PhaseVector Rest(const DriveConstants& k, const RestInput& in, State* s) const;
   double HoldingStiffness(const DriveConstants&, PhaseVector) const {
     return mechanical.Stiffness();

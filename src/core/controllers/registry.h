@@ -162,6 +162,12 @@ concept FieldOrientedUnit = requires(const C& u, const DriveConstants& k, const 
 template <class C>
 concept FeedForwardUnit = std::same_as<C, Stmms>;
 
+/// The same position law with current feedback at ρ (Kim's high-gain FOC, K(33)): its averaged form
+/// solves the law's continuous voltage with the winding as a real 2×2 system in the rotor's frame
+/// (the law reads Im of the current for ω̇; averaged_feed_forward.h, F-3).
+template <class C>
+concept HighGainFocUnit = std::same_as<C, HighGainFoc>;
+
 /// An ideal source: no clock, no windings; its averaged form is itself.
 template <class C>
 concept IdealSourceUnit = requires {
@@ -173,21 +179,18 @@ concept IdealSourceUnit = requires {
 /// source.
 template <class C>
 concept AveragedUnit = SwitchingUnit<C> || SpanUnit<C> || RotatingVoltageUnit<C> ||
-    CurrentLoopUnit<C> || FieldOrientedUnit<C> || FeedForwardUnit<C> || IdealSourceUnit<C>;
+    CurrentLoopUnit<C> || FieldOrientedUnit<C> || FeedForwardUnit<C> || HighGainFocUnit<C> ||
+    IdealSourceUnit<C>;
 
-/// Whether a controller has an averaged form (fidelity = averaged).
-inline bool HasAveragedForm(const Controller& c) {
-  return std::visit([](const auto& unit) { return AveragedUnit<std::decay_t<decltype(unit)>>; }, c);
-}
-
-/// The names of the controllers with an averaged form, in registry order.
-inline std::vector<std::string> AveragedControllerNames() {
-  std::vector<std::string> names;
-  ForEachControllerType([&]<class C>() {
-    if constexpr (AveragedUnit<C>) names.push_back(C::kName);
-  });
-  return names;
-}
+namespace internal {
+template <class V>
+struct EveryUnitAveraged;
+template <class... C>
+struct EveryUnitAveraged<std::variant<C...>> : std::bool_constant<(AveragedUnit<C> && ...)> {};
+}  // namespace internal
+// SPEC §11, issue 30: every drive has an averaged form (fidelity = averaged).
+static_assert(internal::EveryUnitAveraged<Controller>::value,
+              "a drive without an averaged form (fidelity = averaged)");
 
 /// The speed feedback a controller uses unless the user says otherwise.
 SpeedFeedback DefaultSpeedFeedback(const Controller& c);
