@@ -74,8 +74,10 @@ RotatingFrameStep Piece(const Matrix& m, const std::array<Vector, kDegree + 1>& 
 
 }  // namespace
 
-RotatingFrameStep AdvanceRotatingFrame(const Eigen::Matrix2d& m, const ForcingPolynomial& g,
-                                       PhaseVector start) {
+RotatingFrameStep AdvanceRotatingFrame(const RotatingFrameMatrix& matrix,
+                                       const ForcingPolynomial& g, PhaseVector start) {
+  Matrix m;
+  m << matrix[0], matrix[1], matrix[2], matrix[3];
   // ‖M‖ by its largest row sum (>= its spectral radius).
   const double norm = m.cwiseAbs().rowwise().sum().maxCoeff();
   const int pieces = std::max(1, static_cast<int>(std::ceil(norm / kFeedForwardPieceMu)));
@@ -106,9 +108,7 @@ RotatingFrameStep AdvanceRotatingFrame(const Eigen::Matrix2d& m, const ForcingPo
 RotatingFrameStep AdvanceRotatingFrame(PhaseVector mu, const ForcingPolynomial& g,
                                        PhaseVector start) {
   // −μ·I on (Re, Im).
-  Matrix m;
-  m << -mu.real(), mu.imag(), -mu.imag(), -mu.real();
-  return AdvanceRotatingFrame(m, g, start);
+  return AdvanceRotatingFrame({-mu.real(), mu.imag(), -mu.imag(), -mu.real()}, g, start);
 }
 
 std::array<double, 5> QuarticThrough(const std::array<double, 5>& samples) {

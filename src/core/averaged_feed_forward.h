@@ -37,7 +37,6 @@
 #ifndef MJSTEPPER_CORE_AVERAGED_FEED_FORWARD_H_
 #define MJSTEPPER_CORE_AVERAGED_FEED_FORWARD_H_
 
-#include <Eigen/Core>
 #include <array>
 
 #include "core/motor.h"
@@ -71,10 +70,15 @@ struct RotatingFrameStep {
 RotatingFrameStep AdvanceRotatingFrame(PhaseVector mu, const ForcingPolynomial& g,
                                        PhaseVector start);
 
+/// M of (F-3), a real 2×2 matrix on (Re I, Im I), row-major. (Plain doubles: no Eigen type
+/// crosses this header, whose callers may be built for another instruction set and so another
+/// Eigen alignment.)
+using RotatingFrameMatrix = std::array<double, 4>;
+
 /// The same for dI/ds = M·I + G(s) with I read as (Re I, Im I) and M any real 2×2 matrix (F-3:
 /// a law that reads Im(I), the current's torque, as the high-gain FOC's does); pieces of ‖M‖∞ <=
 /// kFeedForwardPieceMu.
-RotatingFrameStep AdvanceRotatingFrame(const Eigen::Matrix2d& m, const ForcingPolynomial& g,
+RotatingFrameStep AdvanceRotatingFrame(const RotatingFrameMatrix& m, const ForcingPolynomial& g,
                                        PhaseVector start);
 
 /// The quartic through samples at s = 0, 1/4, 1/2, 3/4, 1: its coefficients of s^0..s^4.

@@ -698,7 +698,8 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
           const Eigen::Vector2d gm = hp * inverse * vec(forcing[m]);
           g[m] = PhaseVector(gm(0), gm(1));
         }
-        const RotatingFrameStep r = AdvanceRotatingFrame(step, g, start_frame);
+        const RotatingFrameStep r =
+            AdvanceRotatingFrame({step(0, 0), step(0, 1), step(1, 0), step(1, 1)}, g, start_frame);
         if constexpr (HighGainFocUnit<C>) {
           linear = std::abs(voltage_at(r.end, 1)) <= kFeedForwardMargin * radius;
           if (!linear) break;

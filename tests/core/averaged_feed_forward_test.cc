@@ -89,7 +89,8 @@ TEST(AveragedFeedForward, TheRealTwoByTwoSolutionIsTheWindingsOwn) {
               k3 = slope(s + h / 2, y + h / 2 * k2), k4 = slope(s + h, y + h * k3);
       y += h / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
     }
-    const RotatingFrameStep exact = AdvanceRotatingFrame(m, g, start);
+    const RotatingFrameStep exact =
+        AdvanceRotatingFrame({m(0, 0), m(0, 1), m(1, 0), m(1, 1)}, g, start);
     EXPECT_LT(std::abs(exact.end - PhaseVector(y(0), y(1))), 1e-9 * std::hypot(y(0), y(1)));
     EXPECT_LT(std::abs(exact.integral - PhaseVector(y(2), y(3))), 1e-9 * std::hypot(y(2), y(3)));
     EXPECT_NEAR(exact.norm_integral / y(4), 1.0, 1e-8);
