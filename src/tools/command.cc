@@ -176,6 +176,23 @@ int Info(const std::string& path) {
                verdict.Message("the model", "\n    "));
   }
   if (const std::string note = SubstepNote(sm); !note.empty()) fmt::print("  note: {}\n", note);
+  // A move's ringing after it, with STEP/DIR input: a finer step than the rule's (drive.h).
+  const bool steps = std::any_of(sm.steppers.begin(), sm.steppers.end(), [](const auto& s) {
+    return s.config.input == InputMode::kSteps;
+  });
+  double fastest = 0;  // rad/s, the fastest stepper mode
+  for (const auto& mode : modes) {
+    if (mode.stepper()) fastest = std::max(fastest, mode.omega);
+  }
+  if (steps && fastest > 0) {
+    const double ringing = RoundDown3(kRingingOmegaTimesStep / fastest);  // s
+    fmt::print(
+        "  ringing after a move (STEP/DIR): the time of each torque change within a step moves "
+        "it; within 5 % of a fine reference at ω·h <= {:g} on the fastest stepper mode ({:.1f} "
+        "Hz), timestep <= {:.3g} s ({}; measured on models/corexy.xml, docs/coupling.md)\n",
+        kRingingOmegaTimesStep, fastest / kTwoPi, ringing,
+        h <= ringing ? fmt::format("{:g} s does", h) : fmt::format("{:g} s does not", h));
+  }
   return 0;  // warnings inform; they do not fail the command
 }
 

@@ -853,6 +853,20 @@ TEST(Info, GivesTheChoppersCycleAndWhatACoarserStepHandsOver) {
   }
 }
 
+// A move's ringing after it needs a finer step than the rule's with STEP/DIR input (drive.h,
+// kRingingOmegaTimesStep): `info` notes it, for the CoreXY at ω·h 0.065 on its 205.6 Hz rotor
+// mode, 5.03e-5 s, which its own 5e-5 s meets; a model without STEP/DIR input gets no such note.
+TEST(Info, NotesTheStepARingingAfterAMoveNeeds) {
+  Result r = RunCli("info " MJSTEPPER_SOURCE_DIR "/models/corexy.xml");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("ringing after a move (STEP/DIR)"));
+  EXPECT_THAT(r.output, HasSubstr("at ω·h <= 0.065 on the fastest stepper mode (205.6 Hz), "
+                                  "timestep <= 5.03e-05 s (5e-05 s does;"));
+  r = RunCli("info " MJSTEPPER_SOURCE_DIR "/models/tsui_rigid.xml");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, Not(HasSubstr("ringing after a move")));
+}
+
 TEST(Map, WritesCsvAndHeatMapAndNamesBadParameters) {
   const std::string coupling = MJSTEPPER_SOURCE_DIR "/models/tsui_coupling.xml";
   const auto prefix = TempDir() / "map";
