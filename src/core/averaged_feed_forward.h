@@ -56,6 +56,10 @@ inline constexpr double kFeedForwardMaxPieces = 64;
 /// a tenth is left for what it does between (a heuristic, not a bound; the STMMS's is a bound).
 inline constexpr double kFeedForwardMargin = 0.9;
 
+/// The largest ρ·(D + T/2) at which the FOC's averaged form takes its current feedback as read
+/// first-order late (F-3); Kim's 1 MHz clock gives 0.0125. Beyond, the drive runs the interrupts.
+inline constexpr double kFeedForwardLoopLag = 0.1;
+
 /// G(s) of (F-1): coefficients g0..g4 of s^0..s^4.
 using ForcingPolynomial = std::array<PhaseVector, 5>;
 

@@ -574,7 +574,7 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
         double piece_end = t1;
         if (profiled) {  // the profile's next change, where the lagged law meets it
           const double change = config_.profile.NextBreak(plan, piece_start - lag) + lag;
-          if (change < t1 - 1e-9 * h) piece_end = change;
+          if (change > piece_start + 1e-9 * h && change < t1 - 1e-9 * h) piece_end = change;
         }
         const double hp = piece_end - piece_start;  // s
         const double from = piece_start - lag;      // the law's time at s = 0
@@ -690,7 +690,10 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
           linear = linear &&
                    r_nominal / km_nominal * largest_torque + km_nominal * std::abs(omega) <= radius;
         } else {
-          linear = linear && std::abs(voltage_at(start_frame, 0)) <= kFeedForwardMargin * radius;
+          // (The first-order delay stands for the loop's own only while ρ·(D + T/2) is small: a
+          // slower clock runs its interrupts.)
+          linear = linear && controller.rho * lag <= kFeedForwardLoopLag &&
+                   std::abs(voltage_at(start_frame, 0)) <= kFeedForwardMargin * radius;
         }
         if (!linear) break;
         ForcingPolynomial g;  // G = hp·D⁻¹·F
