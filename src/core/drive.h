@@ -117,8 +117,9 @@ inline constexpr double kMaxOmegaTimesStep = 0.2;
 /// step moves) stays within 5 % of a fine reference with STEP/DIR input. Measured on
 /// models/corexy.xml's move at six shifts of the move against the step grid (docs/coupling.md,
 /// "The CoreXY's ringing against the step grid"): within ±4.4 % at 50 µs (ω·h 0.064), −4.4 to
-/// +9.2 % at 100 µs, −3.8 to +8.8 % at the rule's 154 µs (0.2). One machine and one move: `info`
-/// gives it as a note, the rule does not enforce it.
+/// +9.2 % at 100 µs, −3.8 to +8.8 % at the rule's 154 µs (0.2). The bound depends on the move:
+/// the bed-slinger's Y move, whose ringing is larger, stays within 3.8 % to 100 µs (ω·h 0.15 on its
+/// 245.8 Hz rotor mode). `info` gives it as a note; the rule does not enforce it.
 inline constexpr double kRingingOmegaTimesStep = 0.065;
 
 /// The largest timestep, s, that resolves a rotor of inertia J (kg·m²) held by stiffness T'

@@ -860,8 +860,8 @@ TEST(Info, NotesTheStepARingingAfterAMoveNeeds) {
   Result r = RunCli("info " MJSTEPPER_SOURCE_DIR "/models/corexy.xml");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("ringing after a move (STEP/DIR)"));
-  EXPECT_THAT(r.output, HasSubstr("at ω·h <= 0.065 on the fastest stepper mode (205.6 Hz), "
-                                  "timestep <= 5.03e-05 s (5e-05 s does;"));
+  EXPECT_THAT(r.output, HasSubstr("at ω·h <= 0.065 on the fastest stepper mode (205.6 Hz): "
+                                  "timestep <= 5.03e-05 s (5e-05 s meets it)"));
   r = RunCli("info " MJSTEPPER_SOURCE_DIR "/models/tsui_rigid.xml");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_THAT(r.output, Not(HasSubstr("ringing after a move")));
