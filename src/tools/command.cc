@@ -177,9 +177,8 @@ int Info(const std::string& path) {
   }
   if (const std::string note = SubstepNote(sm); !note.empty()) fmt::print("  note: {}\n", note);
   // A move's ringing after it, with STEP/DIR input: a finer step than the rule's (drive.h).
-  const bool steps = std::any_of(sm.steppers.begin(), sm.steppers.end(), [](const auto& s) {
-    return s.config.input == InputMode::kSteps;
-  });
+  const bool steps = std::any_of(sm.steppers.begin(), sm.steppers.end(),
+                                 [](const auto& s) { return s.config.input == InputMode::kSteps; });
   double fastest = 0;  // rad/s, the fastest stepper mode
   for (const auto& mode : modes) {
     if (mode.stepper()) fastest = std::max(fastest, mode.omega);
