@@ -4,10 +4,10 @@
 
 #include <Eigen/Dense>
 #include <cmath>
-#include <limits>
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <type_traits>
 
 #include "core/drive.h"
@@ -18,7 +18,9 @@ namespace mjstepper {
 namespace {
 
 template <class T>
-concept HasCurrent = requires(T t) { t.current; };
+concept HasCurrent = requires(T t) {
+  t.current;
+};
 
 // H24: the STMMS receives a MechanicalSample, which has no current field: it cannot read a current
 // measurement (a compile-time fact). The same check holds for the FOC's input, which does read
@@ -83,8 +85,8 @@ TEST(Kim, H18_SensitivityAt50Hz) {
     // ė = A·e + [0; 0; 1/J]·τ̃, τ̃ = sin(2πft) (N·m)
     auto rate = [&](double t, const Eigen::Vector3d& e) {
       Eigen::Vector3d de;
-      de << e[1], -k.k1p * e[1] + e[2], -k.k0 * e[0] - k.k1 * e[1] - k.k2 * e[2] +
-                                            std::sin(kTwoPi * f * t) / J;
+      de << e[1], -k.k1p * e[1] + e[2],
+          -k.k0 * e[0] - k.k1 * e[1] - k.k2 * e[2] + std::sin(kTwoPi * f * t) / J;
       return de;
     };
     Eigen::Vector3d e = Eigen::Vector3d::Zero();
@@ -125,7 +127,9 @@ double CurrentErrorDecayRate(const Drive& drive) {
   DriveState s = drive.Rest(0.0, 0.0, 0.0);
   s.current_a += 0.5;
   const double h = 50e-6;
-  auto error = [&] { return std::hypot(s.current_a - s.current_ref_a, s.current_b - s.current_ref_b); };
+  auto error = [&] {
+    return std::hypot(s.current_a - s.current_ref_a, s.current_b - s.current_ref_b);
+  };
   double e1 = 0, e2 = 0;
   for (int k = 0; k < 24; ++k) {
     drive.Advance(&s, k * h, (k + 1) * h, 0.0, 0.0);
@@ -148,8 +152,8 @@ TEST(Kim, H19_StmmsCurrentErrorDecaysAtROverL) {
 // ρ·T = 2.5 % (case 1) of the error, a discrete rate −ln(1 − ρT)/T = 1.013·ρ.
 TEST(Kim, H20_FocCurrentErrorDecaysAtRho) {
   for (double rho : {25000.0, 10000.0}) {
-    const Drive drive(KimDrive(HighGainFoc{.mechanical = {.k1p = 1000, .load_torque = 0.1},
-                                           .rho = rho}));
+    const Drive drive(
+        KimDrive(HighGainFoc{.mechanical = {.k1p = 1000, .load_torque = 0.1}, .rho = rho}));
     const double rate = CurrentErrorDecayRate(drive);
     EXPECT_NEAR(rate, rho, 0.02 * rho);
     std::printf("H20: FOC rho %g: current error decays at %.5g 1/s\n", rho, rate);
@@ -199,10 +203,8 @@ TEST(Kim, TheTrapezoidsBreaksAreItsSegmentsEnds) {
 // The S-curve reaches the target at rest with |jerk| ≤ Jm, |θ̈| ≤ A, |θ̇| ≤ V, and its speed is
 // continuous (checked by finite differences of θ at 1 µs).
 TEST(Kim, SCurveRespectsLimits) {
-  const MotionProfile p{.kind = ProfileKind::kSCurve,
-                        .max_speed = 10,
-                        .max_accel = 50,
-                        .max_jerk = 1000};
+  const MotionProfile p{
+      .kind = ProfileKind::kSCurve, .max_speed = 10, .max_accel = 50, .max_jerk = 1000};
   for (double target : {3.0, 0.05, -1.0}) {
     MotionProfile::State s = MotionProfile::Rest(0.0, 0.0);
     p.Update(&s, 0.0, 1e-3, target);

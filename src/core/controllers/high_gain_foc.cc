@@ -25,8 +25,8 @@ TickOutput HighGainFoc::Tick(const DriveConstants& k, const Input& in, const Pow
   const MechanicalSample m = MechanicalSample::From(in);
   const KimMechanical& mech = mechanical;
   const KimMechanical::Errors e = mech.Track(m);
-  s->e0 += k.isr_period * e.e1;                          // K(22)
-  const double torque = mech.DesiredTorque(m, e, s->e0);  // τd, K(24)
+  s->e0 += k.isr_period * e.e1;                                      // K(22)
+  const double torque = mech.DesiredTorque(m, e, s->e0);             // τd, K(24)
   const PhaseVector phasor = in.feedback.ElecPhasor(k.rotor_teeth);  // e^{jx}
   const PhaseVector current_ref = KimMechanical::Commutate(torque, k.torque_constant, phasor);
   const double omega = in.feedback.omega;
@@ -47,8 +47,9 @@ TickOutput HighGainFoc::Tick(const DriveConstants& k, const Input& in, const Pow
     s->has_previous = 1;
   }
   const PhaseVector emf = PhaseVector(0, k.torque_constant * omega) * phasor;  // j·Km·ω·e^{jx}
-  const PhaseVector v = k.resistance * in.current + emf +
-                        k.inductance * (current_ref_dot + rho * (current_ref - in.current));  // K(33)
+  const PhaseVector v =
+      k.resistance * in.current + emf +
+      k.inductance * (current_ref_dot + rho * (current_ref - in.current));  // K(33)
   return {.bridge = stage.Apply(v), .current_ref = current_ref};
 }
 
@@ -57,9 +58,9 @@ double HighGainFoc::TorqueRate(const MechanicalSample& in, const KimMechanical::
   const KimMechanical& mech = mechanical;
   const double e1_ddot = omega_dot - in.command.accel;
   const double e2_dot = e1_ddot + mech.k1p * e.e1_dot;
-  return mech.damping * omega_dot + mech.inertia * (in.command.jerk - mech.k1p * e1_ddot -
-                                                    mech.k0 * e.e1 - mech.k1 * e.e1_dot -
-                                                    mech.k2 * e2_dot);
+  return mech.damping * omega_dot +
+         mech.inertia * (in.command.jerk - mech.k1p * e1_ddot - mech.k0 * e.e1 -
+                         mech.k1 * e.e1_dot - mech.k2 * e2_dot);
 }
 
 PhaseVector HighGainFoc::Rest(const DriveConstants& k, const RestInput& in, State* s) const {

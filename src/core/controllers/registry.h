@@ -178,9 +178,9 @@ concept IdealSourceUnit = requires {
 /// PI current loop (in the command's frame or the encoder's), a feed-forward law or an ideal
 /// source.
 template <class C>
-concept AveragedUnit = SwitchingUnit<C> || SpanUnit<C> || RotatingVoltageUnit<C> ||
-    CurrentLoopUnit<C> || FieldOrientedUnit<C> || FeedForwardUnit<C> || HighGainFocUnit<C> ||
-    IdealSourceUnit<C>;
+concept AveragedUnit =
+    SwitchingUnit<C> || SpanUnit<C> || RotatingVoltageUnit<C> || CurrentLoopUnit<C> ||
+    FieldOrientedUnit<C> || FeedForwardUnit<C> || HighGainFocUnit<C> || IdealSourceUnit<C>;
 
 namespace internal {
 template <class V>
