@@ -10,8 +10,8 @@
 // the winding as its fundamental, lagged by D + T/2 and scaled by sinc(Ω·T/2) (the averaged voltage
 // drive's, drive.cc). In the rotor's frame, I = i·e^{−jx}, x = Nr·θ, S-3 becomes
 //   dI/ds = −μ·I + G(s),  s = (t − t0)/h ∈ [0, 1],  μ = (R/L + jΩ)·h,  Ω = Nr·ω,           (F-1)
-//   G(s) = (h/L)·(c·(j·(R'/Km')·τd(t − D − T/2) + j·Km'·ω) − j·Km·ω),  c =
-//   sinc(Ω·T/2)·e^{−jΩ(D+T/2)}
+//   G(s) = (h/L)·(c·(j·(R'/Km')·τd(t − D − T/2) + j·Km'·ω) − j·Km·ω),
+//   c = sinc(Ω·T/2)·e^{−jΩ(D+T/2)}
 // (R', Km': the drive's nominal constants, which the law uses; R, Km: the winding's, hot or not),
 // a polynomial G(s) = Σm gm·s^m of degree <= 4. Its exact solution, with the φ functions of
 // exponential integrators, φk(z) = Σj z^j/(j + k)!:

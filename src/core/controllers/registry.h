@@ -175,8 +175,8 @@ concept IdealSourceUnit = requires {
 };
 
 /// A unit with an averaged form: a chopper (averaged_bridge.h), a SpanUnit, a rotating voltage, a
-/// PI current loop (in the command's frame or the encoder's), a feed-forward law or an ideal
-/// source.
+/// PI current loop (in the command's frame or the encoder's), one of Kim's position laws (the
+/// STMMS's feed-forward, the high-gain FOC) or an ideal source.
 template <class C>
 concept AveragedUnit =
     SwitchingUnit<C> || SpanUnit<C> || RotatingVoltageUnit<C> || CurrentLoopUnit<C> ||
