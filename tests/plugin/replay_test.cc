@@ -36,9 +36,10 @@ std::string Model(const std::string& actuator, double timestep) {
 
 // The Tsui PI drive (at its interrupts), the averaged SpreadCycle (whose phases' modes are state
 // too), the switching SpreadCycle at 50 µs (each phase's last cycle, whose ripple the handed torque
-// leaves out), the Tsui drive with the sub-stepped rotor at 1 ms (its speed is state), averaged voltage
-// microstepping, the averaged SpreadCycle sub-stepped at 1 ms (its velocity crossings), and the
-// averaged PI drive and servo sub-stepped at 1 ms (the servo's held iq* and the one before it).
+// leaves out), the Tsui drive with the sub-stepped rotor at 1 ms (its speed is state), averaged
+// voltage microstepping, the averaged SpreadCycle sub-stepped at 1 ms (its velocity crossings), and
+// the averaged PI drive and servo sub-stepped at 1 ms (the servo's held iq* and the one before it),
+// and Kim's laws averaged (the STMMS sub-stepped at 1 ms, the FOC at 50 µs).
 struct Case {
   const char* name;
   const char* actuator;
@@ -95,7 +96,20 @@ INSTANTIATE_TEST_SUITE_P(
              R"(<config key="damping" value="all"/><config key="fidelity" value="averaged"/>)"
              R"(<config key="input" value="velocity"/><config key="coupling" value="substepped"/>)"
              R"(</plugin>)",
-             1e-3}),
+             1e-3},
+        Case{"SubsteppedAveragedStmmsAt1ms",  // (its e0 is state: averaged_feed_forward.h)
+             R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="4.8e-5">)"
+             R"(<config key="motor" value="kim2016"/><config key="drive" value="stmms"/>)"
+             R"(<config key="encoder_counts" value="0"/><config key="fidelity" value="averaged"/>)"
+             R"(<config key="input" value="velocity"/><config key="coupling" value="substepped"/>)"
+             R"(</plugin>)",
+             1e-3},
+        Case{"AveragedHighGainFoc",
+             R"(<plugin name="shaft" joint="shaft" plugin="mjstepper.stepper" armature="4.8e-5">)"
+             R"(<config key="motor" value="kim2016"/><config key="drive" value="foc"/>)"
+             R"(<config key="encoder_counts" value="0"/><config key="fidelity" value="averaged"/>)"
+             R"(<config key="input" value="velocity"/></plugin>)",
+             5e-5}),
     [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
 
 TEST_P(Replay, SetStateReplaysBitForBitWithAConstraint) {
