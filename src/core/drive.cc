@@ -624,8 +624,9 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
             if (k == 0) rate_per_accel = controller.TorqueRate(in, e, 1.0) - rate_samples[0];
           }
         }
-        torque = QuarticThrough(torque_samples);                          // N·m
-        const std::array<double, 5> rate = QuarticThrough(rate_samples);  // N·m/s
+        torque = QuarticThrough(torque_samples);  // N·m
+        std::array<double, 5> rate{};             // N·m/s (the FOC's)
+        if constexpr (HighGainFocUnit<C>) rate = QuarticThrough(rate_samples);
         // L·dI/dt = L·(α·I + β·Im I) + F(t), F a quartic (V): (F-1) for the STMMS (β = 0), (F-3)
         // for the FOC, whose ρ-feedback and ω̇ read the current.
         PhaseVector alpha(-motor.resistance / L, -electrical), beta(0, 0);  // 1/s

@@ -160,13 +160,18 @@ TEST(Kim, H20_FocCurrentErrorDecaysAtRho) {
   }
 }
 
+// The drive's trapezoid with Kim's limits (SPEC §4): 2π rad/s, 4π rad/s², from 0.5 s.
+MotionProfile KimsTrapezoid() {
+  return {.kind = ProfileKind::kTrapezoid,
+          .max_speed = kTwoPi,
+          .max_accel = 2 * kTwoPi,
+          .start_time = 0.5};
+}
+
 // The trapezoid gives Kim's trajectory (SPEC §4) exactly: θd(1.0) = π/2, θd(3.0) = π/2 + 4π,
 // at rest at 5π from 3.5 s, with θ̇d = 2π and θ̈d = ±4π in the ramps.
 TEST(Kim, TrapezoidIsKimsTrajectory) {
-  const MotionProfile p{.kind = ProfileKind::kTrapezoid,
-                        .max_speed = kTwoPi,
-                        .max_accel = 2 * kTwoPi,
-                        .start_time = 0.5};
+  const MotionProfile p = KimsTrapezoid();
   MotionProfile::State s = MotionProfile::Rest(0.0, 0.0);
   p.Update(&s, 0.0, 5e-5, 5 * std::numbers::pi);  // before the start time: no plan yet
   EXPECT_EQ(s.target, 0.0);
@@ -185,10 +190,7 @@ TEST(Kim, TrapezoidIsKimsTrajectory) {
 // The plan's polynomial changes at its start, at each segment's end and at its end: the times an
 // averaged Kim law cuts its steps at (averaged_feed_forward.h), here 0.5, 1.0, 3.0 and 3.5 s.
 TEST(Kim, TheTrapezoidsBreaksAreItsSegmentsEnds) {
-  const MotionProfile p{.kind = ProfileKind::kTrapezoid,
-                        .max_speed = kTwoPi,
-                        .max_accel = 2 * kTwoPi,
-                        .start_time = 0.5};
+  const MotionProfile p = KimsTrapezoid();
   MotionProfile::State s = MotionProfile::Rest(0.0, 0.0);
   EXPECT_EQ(p.NextBreak(s, 0.0), std::numeric_limits<double>::infinity());  // at rest
   p.Update(&s, 0.49999, 0.50004, 5 * std::numbers::pi);

@@ -541,6 +541,40 @@ TEST(Averaged, PiDriveAtTheBusLimitRunsItsInterrupts) {
   EXPECT_NEAR(current_d[0] / current_d[1], 1.0, 0.005);
 }
 
+// One of Kim's shipped models on his trajectory (ctrl 5π rad, the profile's target) for `duration`
+// s, with `configs` added and the model's `from` config replaced by `to` (none when empty): the
+// peak |load angle| (electrical rad) and the copper loss at the end (J); NaN if it fails to load.
+struct KimRun {
+  double peak = 0, copper = 0;
+};
+KimRun RunKimsTrajectory(const std::string& file, const std::string& configs, double duration,
+                         const std::string& from = "", const std::string& to = "") {
+  std::string xml = ShippedModelWithSignals(file, "shaft", configs);
+  if (!from.empty()) {
+    const size_t at = xml.find(from);
+    if (at == std::string::npos) {
+      ADD_FAILURE() << from << " is not in " << file;
+      return {std::nan(""), std::nan("")};
+    }
+    xml.replace(at, from.size(), to);
+  }
+  std::string error;
+  const ModelPtr m = LoadModel(xml, &error);
+  if (!m) {
+    ADD_FAILURE() << error;
+    return {std::nan(""), std::nan("")};
+  }
+  const DataPtr d(mj_makeData(m.get()));
+  d->ctrl[0] = 5 * std::numbers::pi;
+  KimRun r;
+  while (d->time < duration) {
+    mj_step(m.get(), d.get());
+    r.peak = std::max(r.peak, std::abs(d->sensordata[kLoadAngle]));
+  }
+  r.copper = d->sensordata[kEnergyCopper];
+  return r;
+}
+
 // Kim's STMMS (K(20)-(32)) on his trajectory (models/kim_stmms.xml: 1 MHz, 50 µs steps): the
 // averaged law (averaged_feed_forward.h) is the interrupts' continuous limit. Measured: the peak
 // tracking error and the copper loss within 3.3e-7 and 1e-9 of the 1 MHz switching twin's (the
@@ -550,18 +584,11 @@ TEST(Averaged, PiDriveAtTheBusLimitRunsItsInterrupts) {
 TEST(Averaged, StmmsIsItsLawsContinuousVoltage) {
   double peak[2] = {0, 0}, copper[2] = {0, 0};
   for (int f = 0; f < 2; ++f) {
-    const char* fidelity = f == 0 ? "averaged" : "switching";
-    SCOPED_TRACE(fidelity);
-    const ModelPtr m = LoadModel(ShippedModelWithSignals(
-        "kim_stmms.xml", "shaft", Config("fidelity", fidelity) + Config("heat", "off")));
-    ASSERT_TRUE(m);
-    const DataPtr d(mj_makeData(m.get()));
-    d->ctrl[0] = 5 * std::numbers::pi;  // rad: the profile's target
-    while (d->time < 3.0) {
-      mj_step(m.get(), d.get());
-      peak[f] = std::max(peak[f], std::abs(d->sensordata[kLoadAngle]));
-    }
-    copper[f] = d->sensordata[kEnergyCopper];
+    const KimRun r = RunKimsTrajectory(
+        "kim_stmms.xml",
+        Config("fidelity", f == 0 ? "averaged" : "switching") + Config("heat", "off"), 3.0);
+    peak[f] = r.peak;
+    copper[f] = r.copper;
   }
   std::printf("peak load angle averaged %.9f, switching %.9f rad; copper %.9f, %.9f J\n", peak[0],
               peak[1], copper[0], copper[1]);
@@ -593,22 +620,9 @@ TEST(Averaged, KimsLawsAtTheBusLimitRunInterrupts) {
     SCOPED_TRACE(file);
     double peak[2] = {0, 0};
     for (int f = 0; f < 2; ++f) {
-      const char* fidelity = f == 0 ? "averaged" : "switching";
-      SCOPED_TRACE(fidelity);
-      std::string xml = ShippedModelWithSignals(file, "shaft", Config("fidelity", fidelity));
-      const std::string bus = Config("bus_voltage", "24");
-      const size_t at = xml.find(bus);
-      ASSERT_NE(at, std::string::npos);
-      xml.replace(at, bus.size(), Config("bus_voltage", volts));
-      std::string error;
-      const ModelPtr m = LoadModel(xml, &error);
-      ASSERT_TRUE(m) << error;
-      const DataPtr d(mj_makeData(m.get()));
-      d->ctrl[0] = 5 * std::numbers::pi;
-      while (d->time < 2.0) {
-        mj_step(m.get(), d.get());
-        peak[f] = std::max(peak[f], std::abs(d->sensordata[kLoadAngle]));
-      }
+      peak[f] = RunKimsTrajectory(file, Config("fidelity", f == 0 ? "averaged" : "switching"), 2.0,
+                                  Config("bus_voltage", "24"), Config("bus_voltage", volts))
+                    .peak;
     }
     std::printf("%s, peak load angle at a %s V bus: averaged %.9f, switching %.9f rad\n",
                 file.c_str(), volts.c_str(), peak[0], peak[1]);
@@ -667,23 +681,11 @@ TEST(Averaged, HighGainFocIsItsLawsContinuousVoltage) {
 TEST(Averaged, AFocOnASlowClockRunsItsInterrupts) {
   double peak[2] = {0, 0};
   for (int f = 0; f < 2; ++f) {
-    const char* fidelity = f == 0 ? "averaged" : "switching";
-    SCOPED_TRACE(fidelity);
-    std::string xml = ShippedModelWithSignals("kim_foc_case1.xml", "shaft",
-                                              Config("fidelity", fidelity) + Config("heat", "off"));
-    const std::string clock = Config("isr_period", "1e-6");
-    const size_t at = xml.find(clock);
-    ASSERT_NE(at, std::string::npos);
-    xml.replace(at, clock.size(), Config("isr_period", "2e-5"));
-    std::string error;
-    const ModelPtr m = LoadModel(xml, &error);
-    ASSERT_TRUE(m) << error;
-    const DataPtr d(mj_makeData(m.get()));
-    d->ctrl[0] = 5 * std::numbers::pi;
-    while (d->time < 1.5) {
-      mj_step(m.get(), d.get());
-      peak[f] = std::max(peak[f], std::abs(d->sensordata[kLoadAngle]));
-    }
+    peak[f] = RunKimsTrajectory(
+                  "kim_foc_case1.xml",
+                  Config("fidelity", f == 0 ? "averaged" : "switching") + Config("heat", "off"),
+                  1.5, Config("isr_period", "1e-6"), Config("isr_period", "2e-5"))
+                  .peak;
   }
   std::printf("FOC on a 20 us clock, peak load angle: averaged %.12g, switching %.12g rad\n",
               peak[0], peak[1]);
