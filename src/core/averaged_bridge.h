@@ -28,6 +28,15 @@
 // voltage drops, until the cycle has settled (near a zero drop the current drifts for hundreds of
 // cycles first); the averaged target is the table's plus the offset there.
 //
+// A chopper regulates within a band, not onto a point (OffsetBand, RippleOffsets::BandAt): its
+// blank times give every on and fast-decay phase a least length, so after a step down its mean
+// lands on the band's top and comes down only through the slow decays, at (R·i* + e)/L, which
+// near a zero crossing takes milliseconds; a step up lands on the band's bottom, the steady cycle,
+// at once. The averaged phase carries the mean nearest the one it has within the band, and within
+// it follows the slow decay's v = 0 course. That is also the phase's memory where the drop crosses
+// 0 (a ringing rotor's back-EMF): the steady offset jumps there (−0.0085 to +0.0175 A on a
+// TMC2209), the chopper's mean does not.
+//
 // What the average leaves out: the ripple itself (its RMS, ΔI/√12, a small part of the copper
 // loss).
 #ifndef MJSTEPPER_CORE_AVERAGED_BRIDGE_H_
@@ -191,6 +200,19 @@ double FastestCycle(const C& unit, double vbus, double inductance, double peak) 
   return fastest;
 }
 
+/// Where a chopper's cycle mean may sit, less its target (A, in the target's sign):
+/// RippleOffsets::BandAt.
+struct OffsetBand {
+  double low = 0, high = 0;
+  /// The nearest point of the band to `current` (A, signed) about table entry `table` (A,
+  /// signed): the mean a phase carries that arrives with `current` (0 for a zero entry).
+  double Nearest(double table, double current) const {
+    if (table == 0) return 0.0;
+    const double sign = table > 0 ? 1.0 : -1.0;
+    return table + sign * std::clamp(sign * current - std::abs(table), low, high);
+  }
+};
+
 /// CycleMeanOffset on a grid, computed once at load and read by bilinear interpolation: targets
 /// 0..peak (A) and drops −Vbus..Vbus (V). The drop's nodes are fine about 0, where the offset
 /// turns over: a drop above 0 decays the current through the off-time, below the target, and a
@@ -247,6 +269,27 @@ class RippleOffsets {
     const double value = (1 - fu) * ((1 - fw) * at(i, j) + fw * at(i, j + 1)) +
                          fu * ((1 - fw) * at(i + 1, j) + fw * at(i + 1, j + 1));
     return sign * value;
+  }
+  /// The band a phase's cycle mean may sit in, less its target (A, in the target's sign; {0, 0}
+  /// for a zero target): from the steady offset at a small positive drop, where the slow decay
+  /// brings the current down onto the chopper's cycle, to the one at a small negative drop, where
+  /// the fast decays hold it down against the back-EMF; widened to the steady offset at `drop`
+  /// itself. Within the band the chopper's actions balance over a cycle and the mean follows the
+  /// slow decay's v = 0 course; at its edges they hold it (docs/coupling.md, "The CoreXY after a
+  /// move": SpreadCycle's mean lands 0.026 A above its steady cycle after a step down on the
+  /// CoreXY's TMC2209 and comes down at (R·i* + e)/L).
+  OffsetBand BandAt(double target, double hold_voltage) const {
+    if (offsets_.empty() || target == 0) return {};
+    const double sign = target > 0 ? 1.0 : -1.0;
+    const double steady = sign * At(target, hold_voltage);
+    // The drop's nodes beside 0 (±Vbus/768), read on the target's axis alone.
+    const double u = std::clamp(std::abs(target) / peak_, 0.0, 1.0) * (kTargets - 1);
+    const int i = std::min(static_cast<int>(u), kTargets - 2);
+    const int n = static_cast<int>(drops_.size()), zero = kCoarse + kFineSteps;
+    auto column = [&](int j) {
+      return (1 - (u - i)) * offsets_[i * n + j] + (u - i) * offsets_[(i + 1) * n + j];
+    };
+    return {.low = std::min(steady, column(zero + 1)), .high = std::max(steady, column(zero - 1))};
   }
 
  private:

@@ -1103,10 +1103,17 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
           const PhaseVector table(unit.phase[0].target, unit.phase[1].target);  // A
           const PhaseVector emf = PhaseVector(0, emf_gain) * phasor;  // V, j·Km·ω·e^{jx}
           const PhaseVector hold = motor.resistance * table + emf;    // V
-          // The cycle's mean, not the table's entry, is what the phase carries (RippleOffsets).
-          const PhaseVector target =
-              table + PhaseVector(ripple_.At(table.real(), hold.real()),
-                                  ripple_.At(table.imag(), hold.imag()));        // A
+          // The cycle's mean, not the table's entry, is what the phase carries: a place in the
+          // chopper's band about the entry (RippleOffsets::BandAt), the nearest to where the
+          // phase's mean is now. A step down leaves it at the band's top, from where it follows
+          // the slow decay; a step up takes it to the band's bottom, the steady cycle.
+          const OffsetBand band[2] = {ripple_.BandAt(table.real(), hold.real()),
+                                      ripple_.BandAt(table.imag(), hold.imag())};
+          auto in_band = [&](const PhaseVector& i) {  // A
+            return PhaseVector(band[0].Nearest(table.real(), i.real()),
+                               band[1].Nearest(table.imag(), i.imag()));
+          };
+          PhaseVector target = in_band(current);                                 // A
           const double tolerance = kOnTargetFraction * vbus / motor.resistance;  // A
           bool saturated[2] = {false, false};  // the bus cannot move the phase to its target
           bool idle[2] = {false, false};       // a zero target: decaying to 0, then shorted
@@ -1135,6 +1142,7 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
           // The end current with v = 0 (no energies: nullptr).
           const PhaseVector free_end =
               AdvanceInterval(motor, kernel, current, {0, 0}, phasor, nullptr);
+          target = in_band(free_end);  // within the band, the slow decay's own course (v = 0)
           voltage = stage_
                         .Apply({DeadbeatVoltage(target.real(), free_end.real(), kernel.decay,
                                                 motor.resistance),
