@@ -181,7 +181,7 @@ CommandLine::CommandLine(bool out_optional)
   resonance_
       ->add_option("--out", c.out,
                    "output prefix: PREFIX_raw.csv (Klipper's raw accelerometer format), "
-                   "PREFIX_psd.csv, PREFIX.png")
+                   "PREFIX_psd.csv (Klipper's calibration CSV), PREFIX.png")
       ->required();
   AddBounded(resonance_, "min-freq", c.resonance.test.min_freq, "Hz (Klipper's default 5)");
   AddBounded(resonance_, "max-freq", c.resonance.test.max_freq, "Hz (Klipper's 133.33)");

@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "csv_writer.h"
+#include "output_file.h"
 #include "stepper_model.h"
 
 namespace mjstepper::tools {
@@ -38,6 +39,16 @@ std::vector<std::array<double, 3>> Kinematics(const mjModel* m,
     out.push_back({k[0], k[1], k[2]});
   }
   return out;
+}
+
+// A PSD value (mm/s²)²/Hz at frequency f (Hz) as Klipper keeps it once it has read a spectrum
+// (shaper_calibrate.py, CalibrationData.normalize_to_frequencies): divided by f + 0.1 Hz, and below
+// 2·MIN_FREQ = 10 Hz further by exp(1 − (10/(f + 0.1))²), "Remove low-frequency noise".
+double KlipperNormalized(double f, double psd) {
+  constexpr double kLowBand = 10;  // Hz: 2·Klipper's MIN_FREQ (5 Hz)
+  double value = psd / (f + 0.1);
+  if (f < kLowBand) value *= std::exp(1 - std::pow(kLowBand / (f + 0.1), 2));
+  return value;
 }
 
 // The PSDs (Welch, 0.5 s Hann segments, SPEC §9) of the three axes in Klipper's units, the shapers
@@ -97,26 +108,31 @@ void WriteResponse(const ResonanceOptions& o, const std::vector<AccelSample>& sa
     if (r->fits[i].type == best.type) r->recommended = static_cast<int>(i);
   }
 
-  std::vector<std::string> header = {"freq[Hz]", "psd_x[(mm/s²)²/Hz]", "psd_y[(mm/s²)²/Hz]",
-                                     "psd_z[(mm/s²)²/Hz]", "psd_xyz[(mm/s²)²/Hz]"};
-  for (const ShaperFit& f : r->fits) {
-    header.push_back(fmt::format("shaper {} {:.1f}Hz vibr {:.1f}% sm {:.3f}mm accel<={:.0f}",
-                                 f.shaper.name, f.frequency, 100 * f.vibration, f.smoothing * kMm,
-                                 f.max_accel * kMm));
-  }
-  CsvWriter csv(o.out + "_psd.csv", header);
+  // Klipper's calibration CSV, as `calibrate_shaper.py --csv` writes it (its
+  // ShaperCalibrate.save_calibration_data) and reads it back (its parse_log): the header
+  // `freq,psd_x,psd_y,psd_z,psd_xyz,shapers:,NAME(FREQ),…`, then per frequency `%.1f`, the four
+  // PSDs `%.3e`, an empty column under `shapers:` and each shaper's remaining vibration `%.3f`.
+  // With shapers in it Klipper takes the PSDs as already normalized to frequency, so they are
+  // written so (KlipperNormalized): (mm/s²)²/Hz per Hz. The units are documented in resonance.h
+  // and the README, not in the header, which Klipper matches as text.
+  std::string text = "freq,psd_x,psd_y,psd_z,psd_xyz,shapers:";
+  for (const ShaperFit& f : r->fits) text += fmt::format(",{}({:.1f})", f.shaper.name, f.frequency);
+  text += "\n";
   for (size_t k = 0; k < rows.size(); ++k) {
-    std::vector<double> row(rows[k].begin(), rows[k].end());
-    row.insert(row.begin(), band_f[k]);
+    text += fmt::format("{:.1f}", band_f[k]);
+    for (double psd : rows[k]) text += fmt::format(",{:.3e}", KlipperNormalized(band_f[k], psd));
+    text += ",";
     for (const ShaperFit& f : r->fits) {  // the worst over the test dampings, as fitted
       double v = 0;
       for (double zeta : fit.test_dampings) {
         v = std::max(v, RemainingVibration(f.shaper, band_f[k], zeta));
       }
-      row.push_back(v);
+      text += fmt::format(",{:.3f}", v);
     }
-    csv.Row(row);
+    text += "\n";
   }
+  OutputFile csv(o.out + "_psd.csv");
+  csv.Write(text.data(), text.size());
   csv.Commit();
 }
 

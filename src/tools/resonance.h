@@ -5,8 +5,12 @@
 //   PREFIX_raw.csv   the accelerometer log in Klipper's raw format: the first line
 //                    `#time,accel_x,accel_y,accel_z`, then one row per sample, time in s,
 //                    acceleration in mm/s² (Klipper's own scripts read it unchanged);
-//   PREFIX_psd.csv   the frequency response: freq[Hz], psd_x, psd_y, psd_z, psd_xyz in
-//                    (mm/s²)²/Hz (Welch), then each fitted shaper's response on the tested axis;
+//   PREFIX_psd.csv   the frequency response in Klipper's calibration CSV, as
+//                    `calibrate_shaper.py --csv` writes it and reads it back: the header
+//                    `freq,psd_x,psd_y,psd_z,psd_xyz,shapers:,mzv(61.8),…`, then freq in Hz, the
+//                    PSDs (Welch) normalized as Klipper keeps them, (mm/s²)²/Hz divided by
+//                    f + 0.1 Hz, an empty column, and each fitted shaper's remaining vibration on
+//                    the tested axis (a fraction, the worst over the test damping ratios);
 //   PREFIX.png       the PSDs with each shaper's response, as users know the plot;
 // and prints each shaper's fit and the recommendation.
 //

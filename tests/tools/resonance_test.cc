@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -154,12 +155,34 @@ TEST(ResonanceTest, RawLogIsKlippersFormatAndTheResonanceIsTheClosedForm) {
               best.frequency, 100 * best.vibration);
   EXPECT_NEAR(best.frequency, closed, 0.05 * closed);
 
-  // The PSD file: its header and one shaper column per type.
+  // The PSD file is Klipper's calibration CSV (issue 31, item 3), as its calibrate_shaper.py
+  // --csv writes it and its parse_log reads it back: the header exactly, with one NAME(FREQ)
+  // column per fitted shaper; per row `%.1f`, four `%.3e`, an empty cell, `%.3f` per shaper. Its
+  // PSDs are Klipper's normalized ones, psd/(f + 0.1 Hz): the tested axis' raw PSD (r.psd) over
+  // f + 0.1 within the 4-digit rounding (from 10 Hz; below, Klipper damps it further).
   std::ifstream psd(out + "_psd.csv");
   std::getline(psd, line);
-  EXPECT_THAT(line, HasSubstr("freq[Hz],psd_x[(mm/s²)²/Hz],psd_y[(mm/s²)²/Hz],psd_z"));
-  EXPECT_THAT(line, HasSubstr("shaper mzv"));
-  EXPECT_THAT(line, HasSubstr("shaper 3hump_ei"));
+  std::string header = "freq,psd_x,psd_y,psd_z,psd_xyz,shapers:";
+  for (const ShaperFit& f : r.fits)
+    header += fmt::format(",{}({:.1f})", f.shaper.name, f.frequency);
+  EXPECT_EQ(line, header);
+  EXPECT_THAT(line, HasSubstr(",3hump_ei("));
+  std::string shaper_cells;
+  for (size_t i = 0; i < r.fits.size(); ++i) shaper_cells += R"(,[01]\.\d{3})";
+  const std::regex row_format(R"(\d+\.\d(,\d\.\d{3}e[+-]\d{2}){4},)" + shaper_cells);
+  size_t n = 0;
+  while (std::getline(psd, line)) {
+    ASSERT_TRUE(std::regex_match(line, row_format)) << line;
+    double f = 0, x = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf", &f, &x), 2);
+    ASSERT_LT(n, r.frequency.size());
+    EXPECT_NEAR(f, r.frequency[n], 0.05);                                              // %.1f
+    if (f >= 10) {
+      EXPECT_NEAR(x, r.psd[n] / (r.frequency[n] + 0.1), 1e-3 * x) << line;  // %.3e
+    }
+    ++n;
+  }
+  EXPECT_EQ(n, r.frequency.size());
 }
 
 // A 20 mm move along X (trapezoid: 100 mm/s, 5000 mm/s², a printer's) through the STEP/DIR

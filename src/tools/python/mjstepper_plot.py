@@ -33,7 +33,9 @@ def read_csv(path):
     with open(path, newline="") as f:
         rows = list(csv.reader(f))
     header, data = rows[0], rows[1:]
-    columns = {name: [float(r[i]) for r in data] for i, name in enumerate(header)}
+    # (An empty cell, as under Klipper's `shapers:` column, reads as NaN.)
+    columns = {name: [float(r[i]) if r[i] else math.nan for r in data]
+               for i, name in enumerate(header)}
     return header, columns
 
 
@@ -210,22 +212,22 @@ def plot_resonance(path, out, title=None):
     PSD of each axis and their sum against frequency, and on a second axis each fitted shaper's
     remaining vibration V(f) (the largest over the test damping ratios), as users know the plot."""
     header, c = read_csv(path)
-    f = c["freq[Hz]"]
+    f = c["freq"]
     fig, ax = plt.subplots(figsize=(10, 6))
     for name, style in (("psd_x", "-"), ("psd_y", "-"), ("psd_z", "-"), ("psd_xyz", "--")):
-        key = next(h for h in header if h.startswith(name + "["))
-        ax.plot(f, c[key], style, lw=1, label=name.replace("psd_", "").upper())
+        ax.plot(f, c[name], style, lw=1, label=name.replace("psd_", "").upper())
     ax.set_ylim(bottom=0)
     ax.ticklabel_format(axis="y", style="scientific", scilimits=(0, 0))
-    ax.set_ylabel("power spectral density ((mm/s²)²/Hz)")
+    ax.set_ylabel("PSD over frequency, as Klipper plots it ((mm/s²)²/Hz²)")
     ax.legend(loc="upper left", fontsize=8)
     twin = ax.twinx()
-    for key in [h for h in header if h.startswith("shaper ")]:
-        twin.plot(f, c[key], ":", lw=1.2, label=key[len("shaper "):])
+    # Klipper's CSV: the shapers' columns follow the empty `shapers:` one, each NAME(FREQ).
+    for key in header[header.index("shapers:") + 1:]:
+        twin.plot(f, c[key], ":", lw=1.2, label=key)
     twin.set_ylim(0, 1)
     twin.set_ylabel("shaper vibration reduction (remaining fraction)")
     twin.legend(loc="upper right", fontsize=7)
-    finish(fig, ax, "frequency (Hz)", "power spectral density ((mm/s²)²/Hz)",
+    finish(fig, ax, "frequency (Hz)", "PSD over frequency, as Klipper plots it ((mm/s²)²/Hz²)",
            title or os.path.basename(path), out)
 
 
