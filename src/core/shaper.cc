@@ -24,25 +24,6 @@ using std::numbers::pi;
 // diagrams to generate shaped inputs", J. Mech. Des. 116, 1994).
 double HalfPeriodDecay(double zeta) { return std::exp(-zeta * pi / std::sqrt(1 - zeta * zeta)); }
 
-// Undamped amplitudes B_k at k·t_d/2 made damped as A_k ∝ B_k·K^k: the impulse vectors at the
-// design frequency, B_k·(−1)^k up to one factor, are then the undamped shaper's exactly, so its
-// zeros there stay zeros. For ZV (B = [1, 1]/2) and ZVD (B = [1, 2, 1]/4) this is SPEC §9's
-// damped form; for the multi-hump EI shapers it is the damped extension used here (see below).
-std::vector<double> DampedHalfPeriodAmplitudes(const std::vector<double>& undamped, double zeta) {
-  const double k = HalfPeriodDecay(zeta);
-  std::vector<double> a(undamped.size());
-  double sum = 0, scale = 1;
-  for (std::size_t i = 0; i < a.size(); ++i, scale *= k) sum += a[i] = undamped[i] * scale;
-  for (double& x : a) x /= sum;
-  return a;
-}
-
-std::vector<double> HalfPeriodTimes(std::size_t n, double damped_period) {
-  std::vector<double> t(n);
-  for (std::size_t i = 0; i < n; ++i) t[i] = 0.5 * damped_period * static_cast<double>(i);
-  return t;
-}
-
 // The EI shaper (Singhose, Seering & Singer, "Residual vibration reduction using vector diagrams
 // to generate shaped inputs", J. Mech. Des. 116, 1994): V = Vtol at the design frequency and
 // V = 0 at a frequency on each side, undamped A = [(1+V)/4, (1−V)/2, (1+V)/4] at [0, t_d/2, t_d].
@@ -67,27 +48,46 @@ InputShaper EiUnit(double zeta, double v, double damped_period) {
 }
 
 // The two- and three-hump EI shapers (W. Singhose, L. Porter, T. Tuttle, N. Singer, "Vibration
-// reduction using multi-hump input shapers", J. Dyn. Sys. Meas. Control 119, 1997): impulses at
-// k·t_d/2, undamped amplitudes in closed form. Two humps, V = 0 at the design frequency and a
-// hump of height Vtol on each side, with X = (Vtol²·(√(1 − Vtol²) + 1))^{1/3}:
-//   A1 = A4 = (3X² + 2X + 3Vtol²)/(16X),  A2 = A3 = 1/2 − A1.
-// Three humps, V = Vtol at the design frequency and on the two side humps:
-//   A1 = A5 = (1 + 3Vtol + 2√(2Vtol(Vtol + 1)))/16,  A2 = A4 = (1 − Vtol)/4,  A3 = 1 − 2(A1 + A2).
-// With damping, rather than designs of the paper's for damped modes (which could not be consulted
-// here), damping enters through the vector diagram (DampedHalfPeriodAmplitudes), as it does for
-// ZV and ZVD: the design frequency's zero (two humps) stays exact, and the humps fall below Vtol
-// as ζ grows (at ζ = 0.1 to 3.3 % and 2.8 %, the three-hump's to 3.3/2.5/2.2 %): the damped
-// shaper leaves less than the tolerance, for the same duration. shaper_test checks both (and
-// the undamped shapers' insensitivities against their closed forms).
-std::vector<double> TwoHumpUndamped(double v) {
-  const double x = std::cbrt(v * v * (std::sqrt(1 - v * v) + 1));
-  const double a1 = (3 * x * x + 2 * x + 3 * v * v) / (16 * x);
-  return {a1, 0.5 - a1, 0.5 - a1, a1};
-}
-std::vector<double> ThreeHumpUndamped(double v) {
-  const double a1 = (1 + 3 * v + 2 * std::sqrt(2 * v * (v + 1))) / 16;
-  const double a2 = (1 - v) / 4;
-  return {a1, a2, 1 - 2 * (a1 + a2), a2, a1};
+// reduction using multi-hump input shapers", J. Dyn. Sys. Meas. Control 119, 1997: undamped,
+// V = 0 at the design frequency and a hump of Vtol on each side, or V = Vtol there and on two
+// side humps), damped as Klipper defines them (klippy/extras/shaper_defs.py,
+// get_2hump_ei_shaper and get_3hump_ei_shaper, "updated definitions" of 2025-09-16 in its
+// Config_Changes.md), so that a frequency fitted here is the same shaper in Klipper (issue 31):
+// each impulse's amplitude and its time in units of 1/f are cubics in ζ, at Vtol = 5 %,
+//   A_i = Σ_j a_ij·ζ^j,  T_i = Σ_j t_ij·ζ^j / f,
+// with the coefficients below (Klipper's published numbers, facts of its definition; the
+// amplitudes are used divided by their sum, as Klipper's kinematics use them). Checked against
+// Klipper's own shapers at 20-150 Hz and ζ 0-0.2 in tests/core/klipper_shaper_test.cc.
+struct HumpCoefficients {
+  double amplitude[4], time[4];  // ζ^0 … ζ^3
+};
+constexpr HumpCoefficients kTwoHump[] = {
+    {{0.16054, 0.76699, 2.26560, -1.22750}, {0, 0, 0, 0}},
+    {{0.33911, 0.45081, -2.58080, 1.73650}, {0.49890, 0.16270, -0.54262, 6.16180}},
+    {{0.34089, -0.61533, -0.68765, 0.42261}, {0.99748, 0.18382, -1.58270, 8.17120}},
+    {{0.15997, -0.60246, 1.00280, -0.93145}, {1.49920, -0.09297, -0.28338, 1.85710}}};
+constexpr HumpCoefficients kThreeHump[] = {
+    {{0.11275, 0.76632, 3.29160, -1.44380}, {0, 0, 0, 0}},
+    {{0.23698, 0.61164, -2.57850, 4.85220}, {0.49974, 0.23834, 0.44559, 12.4720}},
+    {{0.30008, -0.19062, -2.14560, 0.13744}, {0.99849, 0.29808, -2.36460, 23.3990}},
+    {{0.23775, -0.73297, 0.46885, -2.08650}, {1.49870, 0.10306, -2.01390, 17.0320}},
+    {{0.11244, -0.45439, 0.96382, -1.46000}, {1.99960, -0.28231, 0.61536, 5.40450}}};
+
+// The multi-hump shaper at 1 Hz from its coefficients.
+template <std::size_t N>
+InputShaper MultiHumpUnit(const HumpCoefficients (&c)[N], double zeta) {
+  auto cubic = [zeta](const double(&k)[4]) {
+    return k[0] + zeta * (k[1] + zeta * (k[2] + zeta * k[3]));
+  };
+  InputShaper s;
+  double sum = 0;
+  for (const HumpCoefficients& impulse : c) {
+    s.amplitudes.push_back(cubic(impulse.amplitude));
+    s.times.push_back(cubic(impulse.time));
+    sum += s.amplitudes.back();
+  }
+  for (double& a : s.amplitudes) a /= sum;
+  return s;
 }
 
 // The shaper at 1 Hz: every shaper's times scale as 1/f, its amplitudes not at all.
@@ -120,10 +120,10 @@ InputShaper UnitShaper(ShaperType type, double zeta, double vtol) {
       s = EiUnit(zeta, vtol, td);
       break;
     case ShaperType::kTwoHumpEI:
-      s = {"", DampedHalfPeriodAmplitudes(TwoHumpUndamped(vtol), zeta), HalfPeriodTimes(4, td)};
+      s = MultiHumpUnit(kTwoHump, zeta);
       break;
     case ShaperType::kThreeHumpEI:
-      s = {"", DampedHalfPeriodAmplitudes(ThreeHumpUndamped(vtol), zeta), HalfPeriodTimes(5, td)};
+      s = MultiHumpUnit(kThreeHump, zeta);
       break;
   }
   s.name = std::string(ShaperName(type));
@@ -220,6 +220,19 @@ InputShaper MakeShaper(ShaperType type, double frequency, double damping, double
     throw std::invalid_argument(fmt::format(
         "input shaper {}: vibration tolerance {} is not in (0, 0.2]", ShaperName(type), vtol));
   }
+  const bool multi_hump = type == ShaperType::kTwoHumpEI || type == ShaperType::kThreeHumpEI;
+  if (multi_hump && vtol != kDefaultVibrationTolerance) {
+    throw std::invalid_argument(fmt::format(
+        "input shaper {}: vibration tolerance {}: the multi-hump designs are fitted at {} only",
+        ShaperName(type), vtol, kDefaultVibrationTolerance));
+  }
+  // Klipper's max_damping_ratio for the three-hump design, the range of its fit.
+  constexpr double kThreeHumpMaxDamping = 0.2;
+  if (type == ShaperType::kThreeHumpEI && damping > kThreeHumpMaxDamping) {
+    throw std::invalid_argument(
+        fmt::format("input shaper 3hump_ei: damping ratio {} is not in [0, {}] (its design's fit)",
+                    damping, kThreeHumpMaxDamping));
+  }
   return AtFrequency(UnitShaper(type, damping, vtol), frequency);
 }
 
@@ -258,11 +271,63 @@ double RemainingVibration(const InputShaper& shaper, double frequency, double da
   return std::hypot(c, s);
 }
 
-double Smoothing(const InputShaper& shaper, double accel, double corner_velocity) {
+namespace {
+
+// Klipper's two offsets (KlipperSmoothing) at acceleration a are c0 + c1·a (the 90° turn) and
+// c2·a (the 180° one), m.
+struct KlipperOffsets {
+  double c0 = 0, c1 = 0, c2 = 0;
+};
+KlipperOffsets KlipperOffsetsOf(const InputShaper& shaper, double scv) {
+  double sum = 0, centre = 0;
+  for (std::size_t i = 0; i < shaper.times.size(); ++i) {
+    sum += shaper.amplitudes[i];
+    centre += shaper.amplitudes[i] * shaper.times[i];
+  }
+  KlipperOffsets o;
+  if (!(sum > 0)) return o;
+  centre /= sum;  // s, t_s
+  for (std::size_t i = 0; i < shaper.times.size(); ++i) {
+    const double a = shaper.amplitudes[i] / sum, dt = shaper.times[i] - centre;  // s
+    if (shaper.times[i] >= centre) {
+      o.c0 += std::sqrt(2.0) * a * scv * dt;
+      o.c1 += std::sqrt(2.0) * a * 0.5 * dt * dt;
+    }
+    o.c2 += a * 0.5 * dt * dt;
+  }
+  return o;
+}
+
+}  // namespace
+
+double KlipperSmoothing(const InputShaper& shaper, double accel, double scv) {
+  if (!(accel >= 0) || !(scv >= 0)) {
+    throw std::invalid_argument(fmt::format(
+        "smoothing: acceleration {} m/s² and square corner velocity {} m/s must be >= 0", accel,
+        scv));
+  }
+  const KlipperOffsets o = KlipperOffsetsOf(shaper, scv);
+  return std::max(o.c0 + o.c1 * accel, o.c2 * accel);
+}
+
+double KlipperMaxAccel(const InputShaper& shaper, double scv, double target) {
+  if (!(target > 0) || !(scv >= 0)) {
+    throw std::invalid_argument(fmt::format(
+        "max_accel: smoothing target {} m must be > 0 and square corner velocity {} m/s >= 0",
+        target, scv));
+  }
+  const KlipperOffsets o = KlipperOffsetsOf(shaper, scv);
+  if (o.c0 > target) return 0.0;  // Klipper's: the test at 1e-9 mm/s² fails
+  const double turn = o.c1 > 0 ? (target - o.c0) / o.c1 : std::numeric_limits<double>::infinity();
+  const double reverse = o.c2 > 0 ? target / o.c2 : std::numeric_limits<double>::infinity();
+  return std::min(turn, reverse);
+}
+
+double CornerDeviation(const InputShaper& shaper, double accel, double corner_velocity) {
   if (!(accel >= 0) || !(corner_velocity >= 0)) {
-    throw std::invalid_argument(
-        fmt::format("smoothing: acceleration {} m/s² and corner velocity {} m/s must be >= 0",
-                    accel, corner_velocity));
+    throw std::invalid_argument(fmt::format(
+        "corner deviation: acceleration {} m/s² and corner velocity {} m/s must be >= 0", accel,
+        corner_velocity));
   }
   double lo = 0, hi = shaper.duration();
   if (!(hi > 0)) return 0.0;
@@ -282,15 +347,16 @@ double Smoothing(const InputShaper& shaper, double accel, double corner_velocity
       std::min(Made(shaper, hi, accel, corner_velocity), ToGo(shaper, hi, accel, corner_velocity)));
 }
 
-double MaxAcceleration(const InputShaper& shaper, double smoothing_limit, double corner_velocity) {
+double MaxAccelForCornerDeviation(const InputShaper& shaper, double smoothing_limit,
+                                  double corner_velocity) {
   if (!(smoothing_limit > 0)) {
     throw std::invalid_argument(
-        fmt::format("max acceleration: smoothing limit {} m must be > 0", smoothing_limit));
+        fmt::format("max acceleration: corner deviation limit {} m must be > 0", smoothing_limit));
   }
-  if (Smoothing(shaper, 0.0, corner_velocity) >= smoothing_limit) return 0.0;
-  // Smoothing rises with the acceleration (D and U both do): bracket, then bisect.
+  if (CornerDeviation(shaper, 0.0, corner_velocity) >= smoothing_limit) return 0.0;
+  // The deviation rises with the acceleration (D and U both do): bracket, then bisect.
   double lo = 0, hi = 1;  // m/s²
-  while (Smoothing(shaper, hi, corner_velocity) < smoothing_limit) {
+  while (CornerDeviation(shaper, hi, corner_velocity) < smoothing_limit) {
     lo = hi;
     hi *= 2;
     if (hi > 1e15) return std::numeric_limits<double>::infinity();  // a shaper of no duration
@@ -298,7 +364,7 @@ double MaxAcceleration(const InputShaper& shaper, double smoothing_limit, double
   for (int i = 0; i < 200; ++i) {
     const double mid = 0.5 * (lo + hi);
     if (mid <= lo || mid >= hi) break;
-    (Smoothing(shaper, mid, corner_velocity) < smoothing_limit ? lo : hi) = mid;
+    (CornerDeviation(shaper, mid, corner_velocity) < smoothing_limit ? lo : hi) = mid;
   }
   return lo;
 }
@@ -408,7 +474,7 @@ std::vector<ShaperFit> FitShapers(const std::vector<double>& frequency,
       const double f = options.min_frequency + static_cast<double>(i) * options.frequency_step;
       const InputShaper s = AtFrequency(unit, f);
       const double v = ShapedVibration(s, frequency, psd, options.test_dampings, options.psd_floor);
-      scan.push_back({f, v, Smoothing(s, options.reference_accel, options.corner_velocity)});
+      scan.push_back({f, v, KlipperSmoothing(s, options.reference_accel, options.corner_velocity)});
       least = std::min(least, v);
     }
     const Candidate* best = nullptr;
@@ -424,7 +490,9 @@ std::vector<ShaperFit> FitShapers(const std::vector<double>& frequency,
     fit.shaper = AtFrequency(unit, best->frequency);
     fit.vibration = best->vibration;
     fit.smoothing = best->smoothing;
-    fit.max_accel = MaxAcceleration(fit.shaper, options.smoothing_limit, options.corner_velocity);
+    fit.max_accel = KlipperMaxAccel(fit.shaper, options.corner_velocity, options.smoothing_limit);
+    fit.corner_deviation =
+        CornerDeviation(fit.shaper, options.reference_accel, options.corner_velocity);
     fits.push_back(std::move(fit));
   }
   return fits;

@@ -11,9 +11,14 @@
 //   mzv       3 impulses over 0.75·t_d, zero vibration at f        (Klipper's "modified ZV")
 //   zvd       3 impulses over t_d, zero vibration and slope at f   (Singer & Seering 1990)
 //   ei        3 impulses over t_d, V = Vtol at f, zero on each side (Singhose et al. 1994/1996)
-//   2hump_ei  4 impulses over 1.5·t_d, two humps of V ≤ Vtol      (Singhose et al. 1997)
-//   3hump_ei  5 impulses over 2·t_d, three humps of V ≤ Vtol      (Singhose et al. 1997)
+//   2hump_ei  4 impulses over about 1.5/f, two humps of V ≤ Vtol  (Singhose et al. 1997, damped
+//   3hump_ei  5 impulses over about 2/f, three humps of V ≤ Vtol   as Klipper defines them)
 // with t_d = 1/(f·√(1−ζ²)) the damped period. shaper.cc gives each formula and its source.
+//
+// Two measures of the path a shaper smooths: Klipper's `smoothing` and `max_accel`
+// (KlipperSmoothing, KlipperMaxAccel: its definitions, the numbers its calibrate_shaper.py prints
+// beside a shaper's config lines), and this project's own corner deviation (CornerDeviation: how
+// far the shaped path of a toolhead cuts a square corner, a length one can see on a part).
 #ifndef MJSTEPPER_CORE_SHAPER_H_
 #define MJSTEPPER_CORE_SHAPER_H_
 
@@ -38,11 +43,13 @@ inline constexpr double kMaxShaperDamping = 0.3;
 /// Klipper's default square_corner_velocity, 5 mm/s (Resonance_Compensation.md, "Selecting
 /// max_accel": raising it raises the smoothing): the speed kept through a 90° corner.
 inline constexpr double kSquareCornerVelocity = 0.005;  // m/s
-/// The corner deviation (Smoothing) taken as acceptable: 0.12 mm, a quarter of a 0.4-0.45 mm
-/// extrusion width and below the 0.15 mm gap of Klipper's smoothing test model, which its docs use
-/// as the visible threshold ("Selecting max_accel"). The 0.12 value itself is the brief's (issue
-/// 18); Klipper's docs call their own smoothing numbers "abstract projected values".
+/// Klipper's smoothing target for max_accel, 0.12 mm (shaper_calibrate.py, find_shaper_max_accel:
+/// TARGET_SMOOTHING, "just some empirically chosen value which produces good projections for
+/// max_accel without much smoothing"). Also the corner deviation taken as acceptable
+/// (MaxAccelForCornerDeviation): a quarter of a 0.4-0.45 mm extrusion width.
 inline constexpr double kDefaultSmoothingLimit = 1.2e-4;  // m
+/// The acceleration Klipper prints its smoothing at: 5000 mm/s² (_get_shaper_smoothing's default).
+inline constexpr double kKlipperSmoothingAccel = 5.0;  // m/s²
 
 struct InputShaper {
   std::string name;
@@ -73,23 +80,41 @@ InputShaper Convolve(const InputShaper& a, const InputShaper& b);
 /// same command unshaped (each measured as its command ends). 1 for no shaper.
 double RemainingVibration(const InputShaper& shaper, double frequency, double damping);
 
-/// The smoothing of `shaper`, m: how far the shaped path of a toolhead cuts a square corner. Both
-/// axes shaped alike; the toolhead decelerates at `accel` (m/s²) along X to `corner_velocity`
-/// (m/s) at the corner, switches to Y at that speed and accelerates at `accel` (the ramps longer
-/// than the shaper). The shaped position is Σ A_i·x(t − T_i); its distance from the unshaped L is
-/// min(D(t), U(t)), with D(t) = Σ_{T_i>t} A_i·[v·(T_i − t) + a·(T_i − t)²/2] the X distance still
-/// to go and U(t) = Σ_{T_i<t} A_i·[v·(t − T_i) + a·(t − T_i)²/2] the Y distance made; D falls and
-/// U rises, so the largest deviation is where they cross (found by bisection). For a symmetric
-/// shaper and v = 0 it is a·σ²/4, σ² = Σ A_i·(T_i − T̄)² the variance of the impulse times
-/// (T̄ = Σ A_i·T_i): on any constant-acceleration segment the shaped path is the unshaped one
-/// delayed by T̄ and offset by a·σ²/2 along the acceleration.
-double Smoothing(const InputShaper& shaper, double accel,
-                 double corner_velocity = kSquareCornerVelocity);
+/// Klipper's smoothing of `shaper` (m) at acceleration `accel` (m/s²) and square corner velocity
+/// `scv` (m/s), by its definition (shaper_calibrate.py, _get_shaper_smoothing): with the impulses
+/// about their centre t_s = Σ A_i·T_i / Σ A_i,
+///   offset_90  = √2 · Σ_{T_i ≥ t_s} A_i·(scv + accel/2·(T_i − t_s))·(T_i − t_s) / Σ A_i,
+///   offset_180 = Σ A_i·accel/2·(T_i − t_s)² / Σ A_i,
+/// and the smoothing is the larger. Klipper's docs call these "abstract projected values".
+double KlipperSmoothing(const InputShaper& shaper, double accel = kKlipperSmoothingAccel,
+                        double scv = kSquareCornerVelocity);
 
-/// The acceleration (m/s²) at which Smoothing equals `smoothing_limit` (m); 0 when the corner
-/// velocity alone already smooths that much.
-double MaxAcceleration(const InputShaper& shaper, double smoothing_limit = kDefaultSmoothingLimit,
+/// Klipper's max_accel (m/s²) for `shaper`: the largest acceleration whose KlipperSmoothing at
+/// `scv` stays at or below `target` (m; Klipper's 0.12 mm), found by Klipper by bisection to
+/// 1e-8 mm/s² (find_shaper_max_accel). Both offsets are linear in the acceleration, so it is
+/// their bounds' smaller, in closed form; 0 when the corner velocity alone reaches `target`.
+/// (Klipper prints it rounded to 100 mm/s².)
+double KlipperMaxAccel(const InputShaper& shaper, double scv = kSquareCornerVelocity,
+                       double target = kDefaultSmoothingLimit);
+
+/// This project's corner deviation of `shaper`, m: how far the shaped path of a toolhead cuts a
+/// square corner. Both axes shaped alike; the toolhead decelerates at `accel` (m/s²) along X to
+/// `corner_velocity` (m/s) at the corner, switches to Y at that speed and accelerates at `accel`
+/// (the ramps longer than the shaper). The shaped position is Σ A_i·x(t − T_i); its distance from
+/// the unshaped L is min(D(t), U(t)), with D(t) = Σ_{T_i>t} A_i·[v·(T_i − t) + a·(T_i − t)²/2] the
+/// X distance still to go and U(t) = Σ_{T_i<t} A_i·[v·(t − T_i) + a·(t − T_i)²/2] the Y distance
+/// made; D falls and U rises, so the largest deviation is where they cross (found by bisection).
+/// For a symmetric shaper and v = 0 it is a·σ²/4, σ² = Σ A_i·(T_i − T̄)² the variance of the
+/// impulse times (T̄ = Σ A_i·T_i): on any constant-acceleration segment the shaped path is the
+/// unshaped one delayed by T̄ and offset by a·σ²/2 along the acceleration. Not Klipper's
+/// smoothing: for the same shaper it is 0.6-0.7 of it.
+double CornerDeviation(const InputShaper& shaper, double accel,
                        double corner_velocity = kSquareCornerVelocity);
+
+/// The acceleration (m/s²) at which CornerDeviation equals `limit` (m); 0 when the corner
+/// velocity alone already deviates that much.
+double MaxAccelForCornerDeviation(const InputShaper& shaper, double limit = kDefaultSmoothingLimit,
+                                  double corner_velocity = kSquareCornerVelocity);
 
 /// A one-sided power spectral density.
 struct Spectrum {
@@ -131,24 +156,27 @@ struct FitOptions {
   /// the least-smoothing pick drift up the flank: MZV 4.9 % above the CoreXY's 61.2 Hz X mode and
   /// EI 23 % above the bed-slinger's 50.4 Hz Y mode; 0.0005 keeps them within 2.3 %.)
   double vibration_margin = 0.0005;
-  double smoothing_limit = kDefaultSmoothingLimit;  ///< m, for ShaperFit::max_accel
-  double corner_velocity = kSquareCornerVelocity;   ///< m/s
-  double reference_accel = 5.0;  ///< m/s², ShaperFit::smoothing's (5000 mm/s², a printer's)
+  double smoothing_limit = kDefaultSmoothingLimit;  ///< m, Klipper's target for max_accel
+  double corner_velocity = kSquareCornerVelocity;   ///< m/s, Klipper's scv
+  /// m/s², ShaperFit::smoothing's and corner_deviation's (Klipper's 5000 mm/s²)
+  double reference_accel = kKlipperSmoothingAccel;
   std::vector<ShaperType> types = AllShaperTypes();
 };
 
 struct ShaperFit {
   InputShaper shaper;
   ShaperType type = ShaperType::kZV;
-  double frequency = 0;  ///< Hz
-  double vibration = 0;  ///< ShapedVibration, the remaining fraction of the vibration energy
-  double smoothing = 0;  ///< m, Smoothing at FitOptions::reference_accel
-  double max_accel = 0;  ///< m/s², MaxAcceleration at FitOptions::smoothing_limit
+  double frequency = 0;         ///< Hz
+  double vibration = 0;         ///< ShapedVibration, the remaining fraction of the vibration energy
+  double smoothing = 0;         ///< m, KlipperSmoothing at FitOptions::reference_accel
+  double max_accel = 0;         ///< m/s², KlipperMaxAccel for FitOptions::smoothing_limit
+  double corner_deviation = 0;  ///< m, CornerDeviation at FitOptions::reference_accel
 };
 
-/// For each type, scans the shaper frequency and keeps the least-smoothing (highest) frequency
-/// whose vibration is within `vibration_margin` of the type's least. `frequency` and `psd` as
-/// Welch gives them (the same length, psd ≥ 0 and not all 0); throws std::invalid_argument.
+/// For each type, scans the shaper frequency and keeps the least-smoothing (KlipperSmoothing;
+/// highest) frequency whose vibration is within `vibration_margin` of the type's least. `frequency`
+/// and `psd` as Welch gives them (the same length, psd ≥ 0 and not all 0); throws
+/// std::invalid_argument.
 std::vector<ShaperFit> FitShapers(const std::vector<double>& frequency,
                                   const std::vector<double>& psd, const FitOptions& options = {});
 

@@ -85,7 +85,8 @@ const Column<ShaperFit> kFitColumns[] = {
     {"frequency", "Hz", [](const ShaperFit& f) { return f.frequency; }, nullptr},
     {"vibration", "1", [](const ShaperFit& f) { return f.vibration; }, nullptr},
     {"smoothing", "m", [](const ShaperFit& f) { return f.smoothing; }, nullptr},
-    {"max_accel", "m/s²", [](const ShaperFit& f) { return f.max_accel; }, nullptr}};
+    {"max_accel", "m/s²", [](const ShaperFit& f) { return f.max_accel; }, nullptr},
+    {"corner_deviation", "m", [](const ShaperFit& f) { return f.corner_deviation; }, nullptr}};
 
 const Column<SizeJoint> kSizeColumns[] = {
     {"gear", "rad per joint unit", [](const SizeJoint& j) { return j.gear; }, nullptr},

@@ -258,12 +258,17 @@ void PrintResult(const Command& c, const Result& result, double seconds) {
               "  the largest response at {:.1f} Hz\n",
               o.model, o.axis, o.test.min_freq, o.test.max_freq, o.test.hz_per_sec, r.samples,
               seconds, r.peak_frequency);
+          // smoothing and max_accel by Klipper's definitions (shaper.h), max_accel rounded to
+          // 100 mm/s² as Klipper prints it; the corner deviation is this project's own measure.
+          fmt::print(
+              "  (smoothing and max_accel as Klipper defines and prints them; corner: how far the "
+              "shaped path cuts a square corner at 5000 mm/s²)\n");
           for (const ShaperFit& f : r.fits) {
             fmt::print(
-                "  {:9} {:6.1f} Hz: remaining vibration {:5.1f} %, smoothing {:.3f} mm at 5000 "
-                "mm/s², max acceleration {:.0f} mm/s²\n",
+                "  {:9} {:6.1f} Hz: remaining vibration {:5.1f} %, smoothing ~= {:.3f}, max_accel "
+                "<= {:.0f} mm/s², corner {:.3f} mm\n",
                 f.shaper.name, f.frequency, 100 * f.vibration, f.smoothing * 1000,
-                f.max_accel * 1000);
+                std::round(f.max_accel * 1000 / 100) * 100, f.corner_deviation * 1000);
           }
           if (r.recommended >= 0) {
             const ShaperFit& best = r.fits[r.recommended];

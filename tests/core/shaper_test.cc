@@ -68,12 +68,18 @@ TEST(Shaper, ZvAndZvdAreSpecClosedForms) {
 }
 
 // Every shaper: Σ A = 1 (1e-12, rounding), positive impulses at increasing times from 0, and its
-// duration in damped periods (ZV 1/2, MZV 3/4, ZVD 1, EI 1, 2HUMP 3/2, 3HUMP 2; 1e-12 relative).
+// duration in damped periods (ZV 1/2, MZV 3/4, ZVD 1, EI 1: 1e-12 relative; 2HUMP about 3/2 and
+// 3HUMP about 2: Klipper's fits in ζ give 1.427-1.499 and 1.966-2.000, so 5 %).
 TEST(Shaper, AmplitudesSumToOneAndDurationsAreTheTypes) {
   const double durations[] = {0.5, 0.75, 1.0, 1.0, 1.5, 2.0};  // AllShaperTypes' order
   for (double zeta : {0.0, 0.1, 0.2, 0.3}) {
     for (size_t t = 0; t < AllShaperTypes().size(); ++t) {
       const ShaperType type = AllShaperTypes()[t];
+      if (type == ShaperType::kThreeHumpEI && zeta > 0.2) {  // beyond its design's fit
+        EXPECT_THROW(MakeShaper(type, 55, zeta), std::invalid_argument);
+        continue;
+      }
+      const bool fitted = type == ShaperType::kTwoHumpEI || type == ShaperType::kThreeHumpEI;
       const InputShaper s = MakeShaper(type, 55, zeta);
       SCOPED_TRACE(s.name + " zeta " + std::to_string(zeta));
       double sum = 0;
@@ -84,7 +90,7 @@ TEST(Shaper, AmplitudesSumToOneAndDurationsAreTheTypes) {
       EXPECT_NEAR(sum, 1, 1e-12);
       EXPECT_EQ(s.times.front(), 0);
       for (size_t i = 1; i < s.times.size(); ++i) EXPECT_GT(s.times[i], s.times[i - 1]);
-      EXPECT_NEAR(s.duration() / DampedPeriod(55, zeta), durations[t], 1e-12);
+      EXPECT_NEAR(s.duration() / DampedPeriod(55, zeta) / durations[t], 1, fitted ? 0.05 : 1e-12);
       EXPECT_EQ(ParseShaperType(ShaperName(type)), type);
     }
   }
@@ -132,34 +138,27 @@ TEST(Shaper, EiLeavesItsToleranceAtItsFrequencyAndZerosEitherSide) {
   EXPECT_NEAR(ei0.amplitudes[2], 1.05 / 4, 1e-3);
 }
 
-// The multi-hump shapers: two humps leave exactly nothing at the design frequency (1e-12; the
-// damped extension keeps the undamped vector diagram there), three humps Vtol undamped (1e-12) and
-// less when damped; no hump exceeds Vtol (1e-9 beyond it, the grid's reach), and undamped the
-// humps reach it (within 1e-3: the grid of 1e-4 misses the top by less).
+// The multi-hump shapers, Klipper's fits in ζ of Singhose et al.'s designs at Vtol = 5 %, do what
+// they were designed for to the fits' accuracy over ζ 0-0.2 (measured): two humps leave almost
+// nothing at the design frequency (at most 0.32 %; 0.5 % here) and humps of Vtol on each side
+// (the highest 0.0537 at ζ = 0, so 1.08·Vtol), three humps leave Vtol there (0.0443-0.0505: 12 %)
+// and no more on their side humps (at most 0.0505: 1.02·Vtol), and Klipper's 3HUMP_EI at 40 Hz,
+// ζ = 0.1 leaves 4.9 % at its design frequency (issue 31: the project's own design left 2.5 %).
 TEST(Shaper, MultiHumpShapersKeepTheirHumpsWithinTheTolerance) {
   for (double zeta : {0.0, 0.05, 0.1, 0.15, 0.2}) {
     SCOPED_TRACE(zeta);
     const InputShaper two = MakeShaper(ShaperType::kTwoHumpEI, 40, zeta);
     const InputShaper three = MakeShaper(ShaperType::kThreeHumpEI, 40, zeta);
-    EXPECT_LT(RemainingVibration(two, 40, zeta), 1e-12);
-    EXPECT_LE(RemainingVibration(three, 40, zeta), 0.05 + 1e-12);
-    const auto [lo2, hi2] = Band(two, 40, zeta, 0.05 + 1e-9);
-    const auto [lo3, hi3] = Band(three, 40, zeta, 0.05 + 1e-9);
-    if (zeta == 0) {
-      EXPECT_NEAR(RemainingVibration(three, 40, zeta), 0.05, 1e-12);
-      EXPECT_NEAR(MaxV(two, 40, 0, lo2, 1.0), 0.05, 1e-3);
-      EXPECT_NEAR(MaxV(two, 40, 0, 1.0, hi2), 0.05, 1e-3);
-      EXPECT_NEAR(MaxV(three, 40, 0, lo3, 0.9), 0.05, 1e-3);
-    } else {
-      EXPECT_LT(RemainingVibration(three, 40, zeta), 0.05);
-    }
-    // Inside the band every hump is within the tolerance by definition; the band must reach
-    // past the humps (two humps: 0.83 and 1.17, three: 0.68, 1, 1.32 undamped).
-    EXPECT_LT(lo2, 0.8);
-    EXPECT_GT(hi2, 1.2);
-    EXPECT_LT(lo3, 0.65);
-    EXPECT_GT(hi3, 1.35);
+    EXPECT_LT(RemainingVibration(two, 40, zeta), 0.005);
+    EXPECT_NEAR(RemainingVibration(three, 40, zeta) / 0.05, 1, 0.12);
+    const double two_humps = MaxV(two, 40, zeta, 0.75, 1.25);  // the humps (0.83, 1.17 undamped)
+    EXPECT_LT(two_humps, 1.08 * 0.05);
+    EXPECT_GT(two_humps, 0.95 * 0.05);  // the humps are there: the tolerance is used
+    EXPECT_LT(MaxV(three, 40, zeta, 0.7, 1.3), 1.02 * 0.05);  // (0.68, 1, 1.32 undamped)
   }
+  EXPECT_NEAR(RemainingVibration(MakeShaper(ShaperType::kThreeHumpEI, 40, 0.1), 40, 0.1), 0.049,
+              0.0005);
+  EXPECT_THROW(MakeShaper(ShaperType::kTwoHumpEI, 40, 0.1, 0.1), std::invalid_argument);
 }
 
 // Insensitivity, the width of the band where V <= Vtol = 5 % in units of the design frequency.
@@ -167,16 +166,22 @@ TEST(Shaper, MultiHumpShapersKeepTheirHumpsWithinTheTolerance) {
 // here apart from RemainingVibration (with θ = π·f/f_d):
 //   EI:     V = |A2 + 2A1·cos θ|;  edge cos θ = (Vtol − A2)/(2A1), A = [(1+V)/4, (1−V)/2, …].
 //   2HUMP:  V = 2c·|4A1c² − 3A1 + A2|, c = cos(θ/2); edge: 8A1c³ − 2(3A1 − A2)c = Vtol, the root
-//           above the outer zero.
-//   3HUMP:  V = |A3 + 2A2·cos θ + 2A1·cos 2θ|; edge: 4A1c² + 2A2c + A3 − 2A1 = Vtol, larger root.
+//           above the outer zero, with Singhose et al.'s closed-form amplitudes
+//           A1 = (3X² + 2X + 3Vtol²)/(16X), X = (Vtol²·(√(1 − Vtol²) + 1))^{1/3}, A2 = 1/2 − A1.
+//   3HUMP:  V = |A3 + 2A2·cos θ + 2A1·cos 2θ|, A1 = (1 + 3Vtol + 2√(2Vtol(Vtol + 1)))/16,
+//           A2 = (1 − Vtol)/4, A3 = 1 − 2(A1 + A2); edge: 4A1c² + 2A2c + A3 − 2A1 = Vtol, larger
+//           root.
 // Band = 2·(1 − θ_edge/π). These give 0.399, 0.724 and 0.964 (EI's 0.4 is Singhose et al.'s
-// figure). The numerical band must match within 5e-4 (grid 1e-4, both edges); damped (ζ = 0.1,
-// the test damping equal to the design) the multi-hump bands are no narrower (the humps sit
-// lower).
+// figure). EI, a curve fit whose amplitudes at ζ = 0 are off the closed form by up to 4e-4, must
+// match within 3e-3. The multi-hump shapers are Klipper's fits, whose humps reach up to 1.08·Vtol
+// (MultiHumpShapersKeepTheirHumpsWithinTheTolerance), so their band is taken at 1.1·Vtol: it
+// holds the closed form's and is within 0.02 of it (measured 0.737 and 0.973); the two-hump's
+// damped (ζ 0.1) is no narrower than the undamped closed form (0.870; the three-hump's, 0.907,
+// is: its damped side humps reach 1.1·Vtol further in).
 TEST(Shaper, EiFamilyInsensitivityMatchesTheClosedForms) {
   const double v = 0.05;
-  auto numeric = [](ShaperType type, double zeta) {
-    const auto [lo, hi] = Band(MakeShaper(type, 40, zeta), 40, zeta, 0.05);
+  auto numeric = [](ShaperType type, double zeta, double level) {
+    const auto [lo, hi] = Band(MakeShaper(type, 40, zeta), 40, zeta, level);
     return hi - lo;
   };
   const double ei_edge = std::acos((v - (1 - v) / 2) / ((1 + v) / 2));
@@ -195,15 +200,16 @@ TEST(Shaper, EiFamilyInsensitivityMatchesTheClosedForms) {
   const double c3 = (-2 * b2 + std::sqrt(4 * b2 * b2 - 16 * b1 * (b3 - 2 * b1 - v))) / (8 * b1);
   const double three_band = 2 * (1 - std::acos(c3) / pi);
   EXPECT_NEAR(ei_band, 0.399, 1e-3);
-  // EI is the curve fit, whose amplitudes at ζ = 0 are off the closed form by up to 4e-4: its
-  // edges move by ~7e-4 each, so 3e-3 here.
-  EXPECT_NEAR(numeric(ShaperType::kEI, 0.0), ei_band, 3e-3);
-  EXPECT_NEAR(numeric(ShaperType::kTwoHumpEI, 0.0), two_band, 5e-4);
-  EXPECT_NEAR(numeric(ShaperType::kThreeHumpEI, 0.0), three_band, 5e-4);
+  EXPECT_NEAR(numeric(ShaperType::kEI, 0.0, v), ei_band, 3e-3);
   EXPECT_GT(two_band, 0.72);
   EXPECT_GT(three_band, 0.96);
-  EXPECT_GE(numeric(ShaperType::kTwoHumpEI, 0.1), two_band);
-  EXPECT_GE(numeric(ShaperType::kThreeHumpEI, 0.1), three_band);
+  const double two = numeric(ShaperType::kTwoHumpEI, 0.0, 1.1 * v);
+  const double three = numeric(ShaperType::kThreeHumpEI, 0.0, 1.1 * v);
+  EXPECT_GE(two, two_band);
+  EXPECT_LT(two, two_band + 0.02);
+  EXPECT_GE(three, three_band);
+  EXPECT_LT(three, three_band + 0.02);
+  EXPECT_GE(numeric(ShaperType::kTwoHumpEI, 0.1, 1.1 * v), two_band);
   // (Damped EI's hump is Vtol to the fit's 3 %, so its 5 % band is not contiguous: no check.)
 }
 
@@ -264,8 +270,8 @@ TEST(Shaper, SmoothingIsTheLargestCornerDeviation) {
         worst = std::max(worst, std::min(xs, ys));  // the distance to the L: Xc − x or y
       }
       SCOPED_TRACE(s.name + " v " + std::to_string(v));
-      EXPECT_GE(Smoothing(s, a, v), worst * (1 - 1e-12));
-      EXPECT_NEAR(Smoothing(s, a, v) / worst, 1, 3e-5);
+      EXPECT_GE(CornerDeviation(s, a, v), worst * (1 - 1e-12));
+      EXPECT_NEAR(CornerDeviation(s, a, v) / worst, 1, 3e-5);
     }
   }
 }
@@ -275,8 +281,10 @@ TEST(Shaper, SmoothingIsTheLargestCornerDeviation) {
 // (1e-12 relative: bisection to rounding).
 TEST(Shaper, SymmetricShapersSmoothByAQuarterOfTheirVariance) {
   const double f = 40, a = 3.0;
-  EXPECT_NEAR(Smoothing(MakeShaper(ShaperType::kZV, f, 0.0), a, 0.0) * 64 * f * f / a, 1, 1e-12);
-  EXPECT_NEAR(Smoothing(MakeShaper(ShaperType::kZVD, f, 0.0), a, 0.0) * 32 * f * f / a, 1, 1e-12);
+  EXPECT_NEAR(CornerDeviation(MakeShaper(ShaperType::kZV, f, 0.0), a, 0.0) * 64 * f * f / a, 1,
+              1e-12);
+  EXPECT_NEAR(CornerDeviation(MakeShaper(ShaperType::kZVD, f, 0.0), a, 0.0) * 32 * f * f / a, 1,
+              1e-12);
 }
 
 // On a constant-acceleration segment a shaped ramp is the unshaped one delayed by T̄ = Σ A_i·T_i
@@ -297,18 +305,37 @@ TEST(Shaper, ShapedRampIsDelayedAndOffsetByTheVariance) {
   }
 }
 
-// MaxAcceleration inverts Smoothing (1e-9 relative: bisection), scales as f² at v = 0 (a shaper
-// twice as fast smooths a quarter as much; 1e-9), and is 0 when the corner velocity alone
-// already cuts the corner by the limit.
-TEST(Shaper, MaxAccelerationGivesTheSmoothingLimit) {
+// MaxAccelForCornerDeviation inverts CornerDeviation (1e-9 relative: bisection), scales as f² at
+// v = 0 (a shaper twice as fast smooths a quarter as much; 1e-9), and is 0 when the corner
+// velocity alone already cuts the corner by the limit.
+TEST(Shaper, MaxAccelForCornerDeviationGivesItsLimit) {
   const InputShaper ei = MakeShaper(ShaperType::kEI, 45);
-  const double a = MaxAcceleration(ei);
+  const double a = MaxAccelForCornerDeviation(ei);
   EXPECT_GT(a, 0);
-  EXPECT_NEAR(Smoothing(ei, a) / kDefaultSmoothingLimit, 1, 1e-9);
-  const double a40 = MaxAcceleration(MakeShaper(ShaperType::kMZV, 40), 1e-4, 0.0);
-  const double a80 = MaxAcceleration(MakeShaper(ShaperType::kMZV, 80), 1e-4, 0.0);
+  EXPECT_NEAR(CornerDeviation(ei, a) / kDefaultSmoothingLimit, 1, 1e-9);
+  const double a40 = MaxAccelForCornerDeviation(MakeShaper(ShaperType::kMZV, 40), 1e-4, 0.0);
+  const double a80 = MaxAccelForCornerDeviation(MakeShaper(ShaperType::kMZV, 80), 1e-4, 0.0);
   EXPECT_NEAR(a80 / a40, 4, 4e-9);
-  EXPECT_EQ(MaxAcceleration(MakeShaper(ShaperType::kThreeHumpEI, 10), 1e-4, 1.0), 0.0);
+  EXPECT_EQ(MaxAccelForCornerDeviation(MakeShaper(ShaperType::kThreeHumpEI, 10), 1e-4, 1.0), 0.0);
+}
+
+// Klipper's max_accel inverts Klipper's smoothing (1e-12: a closed form), scales as f² at
+// scv = 0, and is 0 when the corner velocity alone reaches the target. Klipper's smoothing is
+// not the corner deviation: for MZV at 61.8 Hz and 5000 mm/s² it is larger (0.6-0.7 of it, the
+// issue's 0.64).
+TEST(Shaper, KlippersMaxAccelGivesItsSmoothingTarget) {
+  const InputShaper mzv = MakeShaper(ShaperType::kMZV, 61.8);
+  const double a = KlipperMaxAccel(mzv);
+  EXPECT_NEAR(KlipperSmoothing(mzv, a) / kDefaultSmoothingLimit, 1, 1e-12);
+  EXPECT_GT(KlipperSmoothing(mzv, 1.0001 * a), kDefaultSmoothingLimit);
+  const double a40 = KlipperMaxAccel(MakeShaper(ShaperType::kEI, 40), 0.0);
+  const double a80 = KlipperMaxAccel(MakeShaper(ShaperType::kEI, 80), 0.0);
+  EXPECT_NEAR(a80 / a40, 4, 1e-12);
+  EXPECT_EQ(KlipperMaxAccel(MakeShaper(ShaperType::kThreeHumpEI, 10), 1.0), 0.0);
+  const double ratio = CornerDeviation(mzv, 5.0) / KlipperSmoothing(mzv, 5.0);
+  std::printf("MZV 61.8 Hz at 5000 mm/s²: corner deviation / Klipper's smoothing = %.3f\n", ratio);
+  EXPECT_GT(ratio, 0.55);
+  EXPECT_LT(ratio, 0.75);
 }
 
 // ---- Welch -------------------------------------------------------------------------------------
@@ -400,18 +427,18 @@ TEST(ShaperFit, EachTypeTakesTheLeastSmoothingWithinItsMargin) {
       least = std::min(least, v);
       // Leaving no more than the fit, it was a candidate: then it must not smooth less.
       if (v <= fit.vibration - 1e-12) {
-        EXPECT_GE(Smoothing(s, options.reference_accel), fit.smoothing - 1e-15) << fs;
+        EXPECT_GE(KlipperSmoothing(s, options.reference_accel), fit.smoothing - 1e-15) << fs;
       }
     }
     EXPECT_LE(fit.vibration, least + options.vibration_margin + 1e-12);
-    EXPECT_NEAR(Smoothing(fit.shaper, options.reference_accel), fit.smoothing, 1e-15);
-    EXPECT_NEAR(Smoothing(fit.shaper, fit.max_accel) / options.smoothing_limit, 1, 1e-9);
+    EXPECT_NEAR(KlipperSmoothing(fit.shaper, options.reference_accel), fit.smoothing, 1e-15);
+    EXPECT_NEAR(KlipperSmoothing(fit.shaper, fit.max_accel) / options.smoothing_limit, 1, 1e-12);
+    EXPECT_NEAR(CornerDeviation(fit.shaper, options.reference_accel), fit.corner_deviation, 1e-15);
   }
   EXPECT_NEAR(fits[0].frequency / 40, 1, 0.1);  // zv
   EXPECT_NEAR(fits[1].frequency / 40, 1, 0.1);  // mzv
-  // The longer shapers are tuned above the mode (their band reaches down), in order.
-  EXPECT_LT(fits[3].frequency, fits[4].frequency);
-  EXPECT_LT(fits[4].frequency, fits[5].frequency);
+  // The EI family is tuned above the mode (their bands reach down).
+  for (int k : {3, 4, 5}) EXPECT_GT(fits[k].frequency, 40) << fits[k].shaper.name;
 }
 
 // The rule: among the fits leaving at most 1 % of the energy, the largest max_accel; none under
@@ -580,7 +607,8 @@ TEST(ShapedProfile, NestedShapersAreInSeries) {
 // a trapezoid with and without a shaper. The vibration left when each command ends, the amplitude
 // √(e² + ((e' + ζωe)/ω_d)²) of e = x − u_end, shaped over unshaped must be the shaper's V(f, ζ)
 // (SPEC §9's target: within 20 %; measured within 6.3e-5 here, so also 1e-3), and below 1/10 at
-// the tuned frequency (there the shapers with a zero leave < 1e-3, the integration's error).
+// the tuned frequency (there the shapers with an exact zero leave < 1e-3, the integration's
+// error).
 TEST(ShapedProfile, MassSpringRingsByTheShapersRemainingVibration) {
   const std::string move = "trapezoid(60rpm, 0.033s, 0.05s, 0.033s)";  // ramps: no whole periods
   auto residual = [&](const CommandProfile& p, double f, double zeta) {
@@ -616,7 +644,9 @@ TEST(ShapedProfile, MassSpringRingsByTheShapersRemainingVibration) {
       if (f == 40) {
         EXPECT_LT(ratio, 0.1);
       }
-      const bool zero_at_40 = std::string(type) != "ei" && std::string(type) != "3hump_ei";
+      // (Klipper's 2hump_ei, a fit, leaves 0.1 % at its frequency rather than an exact zero.)
+      const bool zero_at_40 =
+          std::string(type) == "zv" || std::string(type) == "mzv" || std::string(type) == "zvd";
       if (f == 40 && zero_at_40) {
         EXPECT_LT(ratio, 1e-3);  // V = 0 there: only the integration's error is left
       } else {

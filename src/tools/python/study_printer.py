@@ -48,8 +48,7 @@ def resonance(axis, prefix, band=("5", "133.33", "2")):
     peak = float(re.search(r"largest response at ([\d.]+) Hz", out).group(1))
     fits = {m.group(1): (float(m.group(2)), float(m.group(3)), float(m.group(5)))
             for m in re.finditer(r"^  (\w+) +([\d.]+) Hz: remaining vibration +([\d.]+) %, "
-                                 r"smoothing ([\d.]+) mm at 5000 mm/s², max acceleration (\d+)",
-                                 out, re.M)}
+                                 r"smoothing ~= ([\d.]+), max_accel <= (\d+)", out, re.M)}
     best = re.search(r"recommended: (\w+) at ([\d.]+) Hz", out)
     return peak, fits, (best.group(1), float(best.group(2)))
 
@@ -243,7 +242,7 @@ def main():
         peak = float(re.search(r"largest response at ([\d.]+) Hz", out).group(1))
         best = re.search(r"recommended: (\w+) at ([\d.]+) Hz", out)
         fit = re.search(rf"^  {best.group(1)} +[\d.]+ Hz: remaining vibration +([\d.]+) %.*"
-                        r"max acceleration (\d+)", out, re.M)
+                        r"max_accel <= (\d+)", out, re.M)
         shaper = f"{best.group(1)} {float(best.group(2)):.1f}Hz"
         path, ends, t_end = tower(axis)
         files = step_lists(path, f"bed_tower_{axis}", {motor: (1 / bed_radius, 1 / bed_radius,
@@ -334,18 +333,18 @@ Measured resonance: X {results['x'][0]:.1f} Hz, Y {results['y'][0]:.1f} Hz. The 
 s and mm/s², the format its `calibrate_shaper.py` reads (tested here for the format itself; Klipper
 was not run).
 
-| X: shaper | frequency (Hz) | remaining vibration (%) | max acceleration (mm/s²) |
+| X: shaper | frequency (Hz) | remaining vibration (%) | Klipper's max_accel (mm/s²) |
 |---|---|---|---|
 {fit_rows('x')}
 
-| Y: shaper | frequency (Hz) | remaining vibration (%) | max acceleration (mm/s²) |
+| Y: shaper | frequency (Hz) | remaining vibration (%) | Klipper's max_accel (mm/s²) |
 |---|---|---|---|
 {fit_rows('y')}
 
 Recommended: X **{results['x'][2][0]} at {results['x'][2][1]:.1f} Hz**, Y **{results['y'][2][0]}
 at {results['y'][2][1]:.1f} Hz** (the least-smoothing shaper leaving at most 1 % of the vibration
-energy; smoothing and maximum acceleration by this project's corner-deviation measure at 0.12 mm,
-src/core/shaper.h, not Klipper's).
+energy; smoothing and max_accel by Klipper's own definitions, src/core/shaper.h, with its 0.12 mm
+target and 5 mm/s square corner velocity, rounded as Klipper prints it).
 
 ## Ringing with and without the shapers
 
@@ -387,7 +386,7 @@ when detuned.)
 own motor and shaper, Y measured on the bed (`--accelerometer bed_accel`): the resonance test
 (20-110 Hz at 5 Hz/s) and the ringing-tower sequence along that axis, the mean over its eight moves:
 
-| axis | peak (Hz) | recommended | remaining vibration (%) | max acceleration (mm/s²) | ringing unshaped (mm/s²) | shaped | ratio above the sensor's noise |
+| axis | peak (Hz) | recommended | remaining vibration (%) | Klipper's max_accel (mm/s²) | ringing unshaped (mm/s²) | shaped | ratio above the sensor's noise |
 |---|---|---|---|---|---|---|---|
 {bed_rows}
 
