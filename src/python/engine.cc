@@ -258,6 +258,9 @@ nb::dict ToPython(const Command& c, const Result& result) {
                                    ? nb::object(nb::str(r.fits[r.recommended].shaper.name.c_str()))
                                    : nb::none();
           out["samples"] = r.samples;
+          nb::list warnings;
+          for (const std::string& w : r.warnings) warnings.append(nb::str(w.c_str()));
+          out["warnings"] = warnings;
         }
       },
       result);

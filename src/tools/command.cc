@@ -276,6 +276,7 @@ void PrintResult(const Command& c, const Result& result, double seconds) {
                 "  recommended: {} at {:.1f} Hz (shaper_type_{} = {}, shaper_freq_{} = {:.1f})\n",
                 best.shaper.name, best.frequency, o.axis, best.shaper.name, o.axis, best.frequency);
           }
+          for (const std::string& w : r.warnings) fmt::print(stderr, "warning: {}\n", w);
           fmt::print("  wrote {0}_raw.csv\n  wrote {0}_psd.csv\n  wrote {0}.png\n", c.out);
         } else if constexpr (std::is_same_v<R, AttachResult>) {
           fmt::print(

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <fmt/ostream.h>
+#include <fmt/ranges.h>
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
@@ -51,6 +52,67 @@ double KlipperNormalized(double f, double psd) {
   return value;
 }
 
+// The ADXL345's own noise floor on axis `axis`, (m/s²)²/Hz one-sided: its white noise (density²)
+// and its rounding to the LSB (LSB²/12 spread over rate/2); sensors/adxl345.h.
+double NoiseFloor(const Adxl345Options& adxl, int axis) {
+  return std::pow(adxl.noise_density[axis], 2) + std::pow(adxl.resolution, 2) / (6 * adxl.rate);
+}
+
+// A peak is taken as a resonance only this far above the noise floor: Klipper counts the PSD
+// above a twentieth of its peak as vibration (shaper_calibrate.py, SHAPER_VIBRATION_REDUCTION),
+// so a peak under 20 floors leaves the sensor's noise counted as vibration everywhere.
+constexpr double kPeakOverNoise = 20;
+// The tested axis' acceleration, less the sensor's noise, must reach this fraction of the
+// commanded one (RMS over the sweep) for the sensor to move with the axis: a sensor on the part
+// the axis moves reads about the command or more (a resonance amplifies it: the bed-slinger's
+// bed 2.1×), one on another part its own noise (its toolhead for the bed's Y: 0.3 %).
+constexpr double kMovesWithTheAxis = 0.1;
+
+// The names of the model's accelerometer sensors, for a message.
+std::string AccelerometerNames(const mjModel* m) {
+  std::vector<std::string> names;
+  for (int i = 0; i < m->nsensor; ++i) {
+    const char* name = mj_id2name(m, mjOBJ_SENSOR, i);
+    if (m->sensor_type[i] == mjSENS_ACCELEROMETER && name != nullptr) names.push_back(name);
+  }
+  return names.empty() ? "none" : fmt::format("{}", fmt::join(names, ", "));
+}
+
+// The placement checks (issue 31, item 4): does the accelerometer move with the tested axis (its
+// acceleration along it, less its noise, against the commanded acceleration's RMS over the
+// sweep, accel_per_hz·f at f rising linearly), and is the response's peak above its noise floor?
+void PlacementWarnings(const ResonanceOptions& o, const mjModel* m,
+                       const std::vector<AccelSample>& samples, ResonanceResult* r) {
+  const int axis = o.axis == 'x' ? 0 : 1;
+  const double floor = NoiseFloor(o.adxl, axis);  // (m/s²)²/Hz
+  double mean = 0, square = 0;
+  for (const AccelSample& s : samples) mean += s.accel[axis];
+  mean /= static_cast<double>(samples.size());
+  for (const AccelSample& s : samples) square += std::pow(s.accel[axis] - mean, 2);
+  square /= static_cast<double>(samples.size());
+  const double moved = std::sqrt(std::max(0.0, square - floor * o.adxl.rate / 2));  // m/s² RMS
+  const double lo = o.test.min_freq, hi = o.test.max_freq;
+  const double mean_f2 = (hi * hi + hi * lo + lo * lo) / 3;               // Hz², ⟨f²⟩
+  const double commanded = o.test.accel_per_hz * std::sqrt(mean_f2 / 2);  // m/s² RMS
+  if (moved < kMovesWithTheAxis * commanded) {
+    r->warnings.push_back(fmt::format(
+        "the accelerometer '{}' does not move with the {} axis: along {} it read {:.1f} % of the "
+        "commanded acceleration ({:.0f} mm/s² RMS over the sweep, less its own noise), so the "
+        "fits below follow its noise; give --accelerometer the sensor on the part the {} axis "
+        "moves (the model's accelerometers: {}; on a bed-slinger's Y axis, its bed's)",
+        o.accelerometer, o.axis, o.axis, 100 * moved / commanded, commanded * kMm, o.axis,
+        AccelerometerNames(m)));
+  }
+  const double peak = *std::max_element(r->psd.begin(), r->psd.end());  // (m/s²)²/Hz
+  if (peak < kPeakOverNoise * floor) {
+    r->warnings.push_back(fmt::format(
+        "the {} axis' largest response, {:.3g} (mm/s²)²/Hz at {:.1f} Hz, is not above the "
+        "accelerometer's noise floor ({:.3g} (mm/s²)²/Hz; a resonance is taken from {:g}× it): the "
+        "peak and the fits may be noise",
+        o.axis, peak * kMm * kMm, r->peak_frequency, floor * kMm * kMm, kPeakOverNoise));
+  }
+}
+
 // The PSDs (Welch, 0.5 s Hann segments, SPEC §9) of the three axes in Klipper's units, the shapers
 // fitted to the tested axis' and PREFIX_psd.csv.
 void WriteResponse(const ResonanceOptions& o, const std::vector<AccelSample>& samples,
@@ -87,7 +149,8 @@ void WriteResponse(const ResonanceOptions& o, const std::vector<AccelSample>& sa
         o.test.min_freq, o.test.max_freq, rate / segment));
   }
   r->frequency = band_f;
-  r->psd = band_psd;
+  r->psd = band_psd;  // to (m/s²)²/Hz, as ResonanceResult documents it
+  for (double& v : r->psd) v /= kMm * kMm;
   // The largest bin, refined by the parabola through it and its neighbours: the bins are 2 Hz
   // apart (0.5 s segments), several percent of a printer's 30-120 Hz resonance.
   const size_t top = std::max_element(band_psd.begin(), band_psd.end()) - band_psd.begin();
@@ -224,6 +287,7 @@ ResonanceResult RunResonanceTest(const ResonanceOptions& o, std::ostream& progre
   ResonanceResult result;
   result.samples = static_cast<long>(samples.size());
   WriteResponse(o, samples, &result);
+  PlacementWarnings(o, m, samples, &result);
   return result;
 }
 

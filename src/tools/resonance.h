@@ -53,6 +53,9 @@ struct ResonanceResult {
   std::vector<ShaperFit> fits;    ///< one per shaper type
   int recommended = -1;           ///< index into fits
   long samples = 0;               ///< accelerometer samples written
+  /// What makes the fits doubtful, for the user (PlacementWarnings): an accelerometer that does
+  /// not move with the tested axis, a peak not above the sensor's noise floor.
+  std::vector<std::string> warnings;
 };
 
 /// Writes ADXL345 samples to `path` in Klipper's raw format (the header above, s and mm/s²),
