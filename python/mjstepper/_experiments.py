@@ -165,18 +165,21 @@ def _items(value):
     return list(value)
 
 
-def run(model, duration, *, ctrl=None, log=None, log_every=None, set=(), load=None, mass=None,
-        keyframe=None, start=None, allow_coarse=False, render=None, frames=None, camera=None, size=None,
-        fps=None, playback=None, overlay=(), no_overlay=False, plot=None, accel_log=None,
-        accelerometer=None, traces=True, progress=False):
+def run(model, duration, *, ctrl=None, klipper=None, log=None, log_every=None, set=(), load=None,
+        mass=None, keyframe=None, start=None, allow_coarse=False, render=None, frames=None,
+        camera=None, size=None, fps=None, playback=None, overlay=(), no_overlay=False, plot=None,
+        accel_log=None, accelerometer=None, traces=True, progress=False):
     """`mjstepper run`: steps `model` for `duration` s with a command profile per stepper
-    (`ctrl={"shaft": "ramp(0rpm,200rpm,0.8s)"}`), writing the CSV log, video, frames or
+    (`ctrl={"shaft": "ramp(0rpm,200rpm,0.8s)"}`) or a real print's step stream
+    (`klipper="models/prints/square20/mzv.map"`: Klipper's MCU step commands onto the steppers
+    the map names), writing the CSV log, video, frames or
     accelerometer log asked for; returns a RunResult (with each stepper's per-step trace unless
     traces=False). `set` ("shaft.damping=all", ...), `load` and `mass` ({name: value}) and the
     rest are the command's options (README, "The command"); `start` "settled" (the default: under
     gravity the drives first settle while it is ramped in) or "aligned" (full gravity at t = 0)."""
     args = command_line("run", [model], dict(
-        duration=duration, ctrl=ctrl, log=log, log_every=log_every, set=_items(set), load=load,
+        duration=duration, ctrl=ctrl, klipper=klipper, log=log, log_every=log_every,
+        set=_items(set), load=load,
         mass=mass, keyframe=keyframe, start=start, allow_coarse=allow_coarse, render=render, frames=frames,
         camera=camera, size=size, fps=fps, playback=playback, overlay=_items(overlay),
         no_overlay=no_overlay, plot=plot, accel_log=accel_log, accelerometer=accelerometer,

@@ -102,7 +102,7 @@ void StepTimes::Write(std::ostream& out) const {
   }
 }
 
-StepTimes StepTimes::Read(const std::string& path) {
+void CheckTextFile(const std::string& path, std::uintmax_t max_bytes, const std::string& what) {
   std::error_code error;
   const auto status = std::filesystem::status(path, error);  // (through symlinks)
   if (error || !std::filesystem::exists(status)) {
@@ -110,13 +110,17 @@ StepTimes StepTimes::Read(const std::string& path) {
   }
   if (!std::filesystem::is_regular_file(status)) {
     throw std::invalid_argument(
-        fmt::format("{}: not a regular file (a list of step times is a text file)", path));
+        fmt::format("{}: not a regular file ({} is a text file)", path, what));
   }
   const std::uintmax_t bytes = std::filesystem::file_size(path, error);
-  if (error || bytes > kMaxStepFileBytes) {
-    throw std::invalid_argument(fmt::format("{}: larger than {} bytes ({} steps at most)", path,
-                                            kMaxStepFileBytes, kMaxStepTimes));
+  if (error || bytes > max_bytes) {
+    throw std::invalid_argument(
+        fmt::format("{}: larger than {} bytes, the most {} may have", path, max_bytes, what));
   }
+}
+
+StepTimes StepTimes::Read(const std::string& path) {
+  CheckTextFile(path, kMaxStepFileBytes, "a list of step times");
   std::ifstream in(path);
   if (!in) throw std::invalid_argument(fmt::format("{}: cannot be read", path));
   return Parse(in, path);

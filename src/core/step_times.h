@@ -24,6 +24,11 @@ inline constexpr std::size_t kMaxStepLine = 256;
 /// The largest file Read takes: kMaxStepTimes lines of a 20-digit time and a direction.
 inline constexpr std::uintmax_t kMaxStepFileBytes = 32 * kMaxStepTimes;
 
+/// Throws std::invalid_argument naming `path` unless it is a regular file (through symlinks; not
+/// a device, a directory or a pipe) of at most `max_bytes` bytes; `what` names its content for the
+/// message ("a list of step times").
+void CheckTextFile(const std::string& path, std::uintmax_t max_bytes, const std::string& what);
+
 class StepTimes {
  public:
   /// Throws std::invalid_argument naming `source`, the line and what is wrong (quoting at most

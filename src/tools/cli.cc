@@ -76,6 +76,11 @@ CommandLine::CommandLine(bool out_optional)
                    "a slide or a tendon also m, mm, m/s, mm/s, m/s², mm/s²: θ = gear·x); speeds "
                    "within ±1e4 rad/s, angles ±1e7 rad, times 1e6 s; or steps(FILE), a "
                    "STEP/DIR list (one step time in s per line, optionally +1/-1) for input=steps");
+  run_->add_option("--klipper", c.run.klipper,
+                   "MAP: a real print's step stream, Klipper's MCU commands from its batch mode "
+                   "(parsedump.py output) onto the actuators the map names, each as a steps(FILE) "
+                   "--ctrl (models/prints/README.md)")
+      ->check(CLI::ExistingFile);
   run_->add_option("--log", c.run.log, "CSV log (a regular file or nothing; written whole)");
   run_->add_option("--accel-log", c.run.accel_log,
                    "the toolhead's virtual ADXL345 in Klipper's raw format (#time,accel_x,"

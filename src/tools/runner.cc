@@ -18,6 +18,7 @@
 #include <system_error>
 
 #include "core/command_profile.h"
+#include "core/klipper_steps.h"
 #include "core/sensors/adxl345.h"
 #include "core/signals.h"
 #include "core/units.h"
@@ -144,14 +145,40 @@ std::vector<ConfigOverride> PulseOverrides(const RunOptions& options, const Step
   return out;
 }
 
+// --klipper: the map's step lists (core/klipper_steps.h), each written to `folder` and given to
+// its actuator as the --ctrl steps(FILE) it stands for.
+void AddKlipperSteps(const StepperModel& sm, RunFolder* folder, RunOptions* options) {
+  for (const auto& [actuator, list] : ReadKlipperSteps(options->klipper)) {
+    const bool stepper = std::any_of(sm.steppers.begin(), sm.steppers.end(),
+                                     [&](const StepperActuator& s) { return s.name == actuator; });
+    if (!stepper) {
+      throw std::invalid_argument(fmt::format("--klipper {}: {} has no stepper actuator '{}'",
+                                              options->klipper, options->model, actuator));
+    }
+    if (options->ctrl.count(actuator) != 0) {
+      throw std::invalid_argument(
+          fmt::format("--klipper {} and --ctrl {}=… both drive '{}': give it one", options->klipper,
+                      actuator, actuator));
+    }
+    const auto path = folder->path() / fmt::format("klipper_{}.steps", options->ctrl.size());
+    std::ofstream file(path);
+    list.Write(file);
+    file.close();
+    if (!file) throw std::runtime_error(fmt::format("cannot write {}", path.string()));
+    options->ctrl[actuator] = fmt::format("steps({})", path.string());
+  }
+}
+
 }  // namespace
 
-RunResult Run(const RunOptions& options, std::ostream& progress) {
-  RequireInRange("--duration", Range("duration"), options.duration);
-  RequireInRange("--log-every", Range("log-every"), options.log_every);
-  StepperModel sm = LoadStepperModel(options.model, options.overrides);
+RunResult Run(const RunOptions& given, std::ostream& progress) {
+  RequireInRange("--duration", Range("duration"), given.duration);
+  RequireInRange("--log-every", Range("log-every"), given.log_every);
+  StepperModel sm = LoadStepperModel(given.model, given.overrides);
   RunFolder
       folder;  // (the plugin reads the lists whenever MuJoCo makes an mjData: kept to the end)
+  RunOptions options = given;
+  if (!options.klipper.empty()) AddKlipperSteps(sm, &folder, &options);
   std::map<std::string, CommandProfile> parsed;  // step lists, read once
   if (const std::vector<ConfigOverride> pulses = PulseOverrides(options, sm, &folder, &parsed);
       !pulses.empty()) {

@@ -35,17 +35,20 @@ struct RunOptions {
   std::string model;                        ///< MJCF path
   double duration = 1.0;                    ///< s of simulated time
   std::map<std::string, std::string> ctrl;  ///< actuator name → profile text
-  std::string log;                          ///< CSV path; empty for none
-  int log_every = 1;                        ///< log one row every N steps
-  bool progress = true;                     ///< progress line on stderr for runs over ~2 s
-  std::vector<ConfigOverride> overrides;    ///< e.g. shaft.damping=all
-  std::map<std::string, double> loads;      ///< load actuator name → τl, N·m (SetLoadTorque)
-  bool allow_coarse = false;                ///< run although a stepper mode's ω·h > 0.2
-  std::string keyframe;                     ///< start from this keyframe; empty: qpos0
-  StartMode start = StartMode::kSettled;    ///< settle under gravity first, or start aligned
-  std::map<std::string, double> masses;     ///< body name → mass, kg (SetBodyMass)
-  bool keep_traces = false;                 ///< fill RunResult::traces (for studies and tests)
-  RenderOptions render;                     ///< video and frames; off unless a path is given
+  /// A Klipper map file (core/klipper_steps.h): its dump's step commands drive the actuators it
+  /// names, each as the step list of a --ctrl steps(FILE); empty for none.
+  std::string klipper;
+  std::string log;                        ///< CSV path; empty for none
+  int log_every = 1;                      ///< log one row every N steps
+  bool progress = true;                   ///< progress line on stderr for runs over ~2 s
+  std::vector<ConfigOverride> overrides;  ///< e.g. shaft.damping=all
+  std::map<std::string, double> loads;    ///< load actuator name → τl, N·m (SetLoadTorque)
+  bool allow_coarse = false;              ///< run although a stepper mode's ω·h > 0.2
+  std::string keyframe;                   ///< start from this keyframe; empty: qpos0
+  StartMode start = StartMode::kSettled;  ///< settle under gravity first, or start aligned
+  std::map<std::string, double> masses;   ///< body name → mass, kg (SetBodyMass)
+  bool keep_traces = false;               ///< fill RunResult::traces (for studies and tests)
+  RenderOptions render;                   ///< video and frames; off unless a path is given
   /// A virtual ADXL345 on the MuJoCo accelerometer sensor `accelerometer`, logged in Klipper's raw
   /// format (resonance.h) to `accel_log`; empty: none.
   std::string accel_log;

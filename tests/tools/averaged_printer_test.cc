@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "accel_log.h"
 #include "runner.h"
 
 namespace mjstepper::tools {
@@ -107,19 +108,6 @@ double RotorRestlessness(const std::string& model, const std::string& fidelity) 
   return std::sqrt(std::max(0.0, sum2 / n - (sum / n) * (sum / n)));
 }
 
-// The toolhead's ADXL345 x (mm/s²) by sample time (s, to 0.1 µs), from a Klipper raw log.
-std::map<long, double> AccelX(const std::string& path) {
-  std::ifstream in(path);
-  std::map<long, double> out;
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    double t = 0, x = 0;
-    if (std::sscanf(line.c_str(), "%lf,%lf", &t, &x) == 2) out[std::lround(t * 1e7)] = x;
-  }
-  return out;
-}
-
 // The toolhead's ringing after the move: RMS of its ADXL345 x from 20 to 120 ms after the move's
 // end, less the sensor's own noise (the same run with the motors still, subtracted sample by
 // sample: the same seed and sample times), mm/s². The sensor's noise (114 mm/s² RMS) is as large
@@ -135,21 +123,12 @@ double Ringing(const std::string& model, const std::string& fidelity, bool one_p
   std::ostringstream progress;
   o.accel_log = (dir / "still.csv").string();
   tools::Run(o, progress);
-  const std::map<long, double> still = AccelX(o.accel_log);
+  const auto still = ReadAccelLog(o.accel_log);
   o.ctrl = {{"stepper_a", "steps(" + steps + ")"}, {"stepper_b", "steps(" + steps + ")"}};
   o.accel_log = (dir / "moved.csv").string();
   tools::Run(o, progress);
-  const std::map<long, double> moved = AccelX(o.accel_log);
   const double end = kStart + MoveDuration();  // s
-  double sum2 = 0;
-  int n = 0;
-  for (const auto& [at, x] : moved) {
-    const double t = at * 1e-7;
-    const auto quiet = still.find(at);
-    if (t < end + 0.02 || t >= end + 0.12 || quiet == still.end()) continue;
-    sum2 += (x - quiet->second) * (x - quiet->second), ++n;
-  }
-  return n > 0 ? std::sqrt(sum2 / n) : 0.0;
+  return RingingRms(ReadAccelLog(o.accel_log), still, 0, end + 0.02, end + 0.12);
 }
 
 // Issue 30, item 3: the printers' ringing after a move, at their own step, within 5 % of the fine

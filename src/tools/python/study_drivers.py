@@ -247,7 +247,8 @@ def main():
             f"{at(pullouts[key], 240, 'pull_out_torque[N·m]'):.3f} | "
             f"{at(pullouts[key], 480, 'pull_out_torque[N·m]'):.3f} |")
     lags = "\n".join(
-        f"| {rpm} | {lag[('stealthchop', rpm)]:.2f} | {lag[('spreadcycle', rpm)]:.2f} |"
+        f"| {rpm} | {lag[('stealthchop', rpm)]:.2f} | {lag[('spreadcycle', rpm)]:.2f} | "
+        f"{lag[('stealthchop', rpm)] - lag[('spreadcycle', rpm)]:.2f} |"
         for rpm in (60, 120, 240))
     tw = col(heat, "winding_temperature")
     elapsed = time.time() - start
@@ -310,13 +311,15 @@ capped at 255/256·248/256 of the bus, and its current falls behind the table at
 Rotor behind the commanded position at constant speed (mean over the last 0.3 s of a 0.8 s run),
 in full steps:
 
-| speed (r/min) | StealthChop | SpreadCycle |
-|---|---|---|
+| speed (r/min) | StealthChop | SpreadCycle | StealthChop's increase |
+|---|---|---|---|
 {lags}
 
-Klipper's documentation gives "around 75 % of a full step" for StealthChop at constant velocity;
-here it grows with speed from the load angle of the load and the voltage-mode current lag
-atan(Nr·ω·L/R) (tests/core/stealth_chop_test.cc checks it against its closed form).
+Klipper's documentation (TMC_Drivers.md) states StealthChop's lag as an increase over SpreadCycle:
+"an increased 'positional lag' of around 75% of a full-step during constant velocity moves"; the
+last column is that increase here. It grows with speed from the voltage-mode current lag
+atan(Nr·ω·L/R) (tests/core/stealth_chop_test.cc checks it against its closed form) on top of
+the load angle both drives share.
 
 ### Sensorless homing
 

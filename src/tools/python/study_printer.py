@@ -375,8 +375,10 @@ by {sx} on both motors (pure X moves turn A and B alike):
 
 The ADXL345's own noise, 290 µg/√Hz over its 1600 Hz bandwidth plus its 3.9 mg rounding, is
 {NOISE_FLOOR:.0f} mm/s² RMS: the shaped moves ring at about that floor, so the plain ratio says
-more about the sensor than the shaper; the last column takes the floor out in quadrature. The rest
-is the 32-microstep staircase's own excitation. (tests/tools/resonance_test.cc checks a shaped
+more about the sensor than the shaper; the last column takes the floor out in quadrature. What
+the rest is, is not settled: it is not the microstep staircase (256 microsteps leave it as it is,
+issue 31), and not the switching chopper's folded ripple, which a step of the printers' 5e-5 s no
+longer hands MuJoCo (docs/coupling.md, "The CoreXY after a move"). (tests/tools/resonance_test.cc checks a shaped
 move against SPEC §9's V on MuJoCo's noise-free sensor: below 1/10 when tuned, within 20 % of V
 when detuned.)
 

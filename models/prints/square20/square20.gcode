@@ -1,0 +1,14 @@
+; mjstepper CoreXY test print (no extrusion): one X move, then two 20 mm squares at 100 mm/s
+SET_KINEMATIC_POSITION X=100 Y=100 Z=10
+G90
+G1 X120 Y100 F6000
+G4 P200
+G1 X120 Y120
+G1 X100 Y120
+G1 X100 Y100
+G1 X120 Y100
+G1 X120 Y120
+G1 X100 Y120
+G1 X100 Y100
+M400
+G4 P500
