@@ -234,6 +234,18 @@ CommandProfile CommandProfile::Parse(std::string_view text, std::optional<double
   }
   const std::string name = Trim(whole.substr(0, open));
   if (name == "shaped") {
+    // Bounded before the recursion: every "shaped" followed by "(" (spaces between allowed).
+    size_t nested = 0;
+    for (size_t at = whole.find("shaped"); at != std::string::npos;
+         at = whole.find("shaped", at + 6)) {
+      const size_t next = whole.find_first_not_of(" \t", at + 6);
+      if (next != std::string::npos && whole[next] == '(') ++nested;
+    }
+    if (nested > kMaxNestedShapers) {
+      throw std::invalid_argument(fmt::format(
+          "profile \"{}…\": {} shaped(…) nested, at most {} (each is a shaper in series)",
+          whole.substr(0, 40), nested, kMaxNestedShapers));
+    }
     return ParseShaped(whole, whole.substr(open + 1, close - open - 1), rad_per_metre);
   }
   if (name == "steps") {  // a file of step times, not quantities

@@ -48,6 +48,9 @@ inline constexpr double kMaxProfileTime = 1e6;   // s
 inline constexpr double kMaxProfileAcceleration = 1e10;  // rad/s²
 /// The most targets a targets(…) profile holds (a robot's program, not a sampled trajectory).
 inline constexpr size_t kMaxTargets = 100000;
+/// The most shaped(…) a profile may nest: two modes' shapers in series is the use; each level is
+/// parsed by a recursion over its inner text, which 6 000 levels overflowed (issue 33).
+inline constexpr size_t kMaxNestedShapers = 4;
 
 class CommandProfile {
  public:

@@ -86,35 +86,38 @@ TEST(KlipperShapers, SmoothingAndMaxAccelAreKlippers) {
   }
 }
 
-// Klipper's calibrate_shaper.py on a committed PSD (corexy_x_psd.csv, written by
-// `mjstepper resonance-test` in Klipper's calibration CSV) prints, per fitted shaper, its
+// Klipper's calibrate_shaper.py on committed PSDs (corexy_x_psd.csv and corexy_y_psd.csv, written
+// by `mjstepper resonance-test` in Klipper's calibration CSV) prints, per fitted shaper, its
 // frequency, "smoothing ~= %.3f" and "suggested max_accel <= %.0f" rounded to 100 mm/s². The same
 // shaper here gives the same printed numbers.
 TEST(KlipperShapers, KlippersPrintedNumbersForACommittedPsd) {
-  std::ifstream in(kData + "corexy_x_calibrate_shaper.txt");
-  ASSERT_TRUE(in);
-  const std::regex fitted(
-      R"(Fitted shaper '(\w+)' frequency = ([\d.]+) Hz \(vibrations = [\d.]+%, smoothing ~= )"
-      R"(([\d.]+)\))");
-  const std::regex suggested(R"(with '(\w+)', suggested max_accel <= (\d+) mm/sec\^2)");
-  std::string line, type;
-  double frequency = 0;
-  int checked = 0;
-  std::smatch m;
-  while (std::getline(in, line)) {
-    if (std::regex_search(line, m, fitted)) {
-      type = m[1];
-      frequency = std::stod(m[2]);
-      const InputShaper s = MakeShaper(ParseShaperType(type), frequency);
-      EXPECT_EQ(std::stod(m[3]), std::round(KlipperSmoothing(s) * 1e6) / 1000) << line;
-    } else if (std::regex_search(line, m, suggested)) {
-      ASSERT_EQ(m[1], type);
-      const InputShaper s = MakeShaper(ParseShaperType(type), frequency);
-      EXPECT_EQ(std::stod(m[2]), std::round(KlipperMaxAccel(s) * 1000 / 100) * 100) << line;
-      ++checked;
+  for (const char* axis : {"x", "y"}) {
+    SCOPED_TRACE(axis);
+    std::ifstream in(kData + "corexy_" + axis + "_calibrate_shaper.txt");
+    ASSERT_TRUE(in);
+    const std::regex fitted(
+        R"(Fitted shaper '(\w+)' frequency = ([\d.]+) Hz \(vibrations = [\d.]+%, smoothing ~= )"
+        R"(([\d.]+)\))");
+    const std::regex suggested(R"(with '(\w+)', suggested max_accel <= (\d+) mm/sec\^2)");
+    std::string line, type;
+    double frequency = 0;
+    int checked = 0;
+    std::smatch m;
+    while (std::getline(in, line)) {
+      if (std::regex_search(line, m, fitted)) {
+        type = m[1];
+        frequency = std::stod(m[2]);
+        const InputShaper s = MakeShaper(ParseShaperType(type), frequency);
+        EXPECT_EQ(std::stod(m[3]), std::round(KlipperSmoothing(s) * 1e6) / 1000) << line;
+      } else if (std::regex_search(line, m, suggested)) {
+        ASSERT_EQ(m[1], type);
+        const InputShaper s = MakeShaper(ParseShaperType(type), frequency);
+        EXPECT_EQ(std::stod(m[2]), std::round(KlipperMaxAccel(s) * 1000 / 100) * 100) << line;
+        ++checked;
+      }
     }
+    EXPECT_EQ(checked, 5);  // zv, mzv, ei, 2hump_ei, 3hump_ei: Klipper's AUTOTUNE_SHAPERS
   }
-  EXPECT_EQ(checked, 5);  // zv, mzv, ei, 2hump_ei, 3hump_ei: Klipper's AUTOTUNE_SHAPERS
 }
 
 }  // namespace

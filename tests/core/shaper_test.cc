@@ -602,6 +602,29 @@ TEST(ShapedProfile, NestedShapersAreInSeries) {
   EXPECT_EQ(p.shaper()->amplitudes, both.amplitudes);
 }
 
+// Issue 33 (severe): 6 000 nested shaped(…) crashed the command with SIGSEGV (a recursion per
+// level, each copying the inner text). Beyond kMaxNestedShapers the profile is refused at once,
+// naming the bound; four nested still parse into four shapers in series.
+TEST(ShapedProfile, DeepNestingIsRefusedNotRecursed) {
+  auto nested = [](int n) {
+    std::string text = "constant(100rpm)";
+    for (int i = 0; i < n; ++i) text = "shaped(" + text + ", zv 40Hz)";
+    return text;
+  };
+  EXPECT_EQ(CommandProfile::Parse(nested(4)).shaper()->amplitudes.size(), 5u);  // 2⁴ at 5 times
+  for (int n : {5, 6000}) {
+    try {
+      CommandProfile::Parse(nested(n));
+      ADD_FAILURE() << n << " levels parsed";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_THAT(e.what(),
+                  ::testing::HasSubstr(std::to_string(n) + " shaped(…) nested, at most 4"));
+      EXPECT_LT(std::string(e.what()).size(), 200u);  // the text is not echoed whole
+    }
+  }
+  EXPECT_THROW(CommandProfile::Parse("shaped (" + nested(5) + ", zv 40Hz)"), std::invalid_argument);
+}
+
 // A mass on a spring (f, ζ) following the commanded angle, x'' = −2ζω(x' − u') − ω²(x − u),
 // integrated by RK4 at 10 µs (over 2000 steps a period at 40-46 Hz), driven through
 // a trapezoid with and without a shaper. The vibration left when each command ends, the amplitude
