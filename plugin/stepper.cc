@@ -185,8 +185,7 @@ int Stepper::Init(const mjModel* m, mjData* d, int instance) {
         try {
           const TimestepVerdict verdict = JudgeModelTimestep(m, steppers);
           judging = false;
-          if (!verdict.failed.empty())
-            mju_warning("%s", verdict.Message("mjstepper", "; ").c_str());
+          if (!verdict.failed.empty()) mju_warning("%s", verdict.Summary("mjstepper").c_str());
         } catch (...) {
           judging = false;
           throw;

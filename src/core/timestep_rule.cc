@@ -103,4 +103,17 @@ std::string TimestepVerdict::Message(const std::string& subject,
   return text;
 }
 
+std::string TimestepVerdict::Summary(const std::string& subject) const {
+  if (failed.empty()) return "";
+  const FailedCheck& worst = *std::max_element(
+      failed.begin(), failed.end(),
+      [](const FailedCheck& a, const FailedCheck& b) { return a.omega_h < b.omega_h; });
+  return fmt::format(
+      "{}: timestep {:g} s is too coarse for {} mode(s) (ω·h <= {:g} each; the fastest, {}, "
+      "{:.1f} Hz, ω·h = {}): use timestep <= {:.3g} s{} (`mjstepper info` lists every mode)",
+      subject, timestep, failed.size(), max_omega_h, worst.name, worst.frequency,
+      FormatOmegaH(worst.omega_h, max_omega_h), suggestion,
+      refuse() ? "" : "; no stepper takes part in these modes (not refused)");
+}
+
 }  // namespace mjstepper

@@ -50,6 +50,9 @@ struct TimestepVerdict {
   /// "M: timestep 0.0002 s is too coarse for 1 mode(s) ...; use timestep <= 4.99e-05 s ...".
   /// `subject` starts it.
   std::string Message(const std::string& subject, const std::string& separator = "\n  ") const;
+  /// Message in one line of a few hundred characters: the count of failing modes, the fastest and
+  /// the suggestion (MuJoCo's warnings are cut at 1000 characters, and a model's load warns once).
+  std::string Summary(const std::string& subject) const;
 };
 
 /// Whether h passes a mode of frequency omega (rad/s): h <= max_omega_h/ω, the same division as

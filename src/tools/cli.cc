@@ -64,6 +64,8 @@ const char* kSetHelp =
 CommandLine::CommandLine(bool out_optional)
     : app_("mjstepper: stepper motors and their drives on MuJoCo joints") {
   app_.require_subcommand(1);
+  app_.set_version_flag("--version",
+                        "mjstepper " MJSTEPPER_VERSION " (MuJoCo " MJSTEPPER_MUJOCO_VERSION ")");
   Command& c = c_;
 
   run_ = app_.add_subcommand("run", "step a model with command profiles, log to CSV");

@@ -73,7 +73,11 @@ class CommandLine {
   /// each naming the option and its bound.
   const Command& Parse(int argc, const char* const* argv);
   /// Prints a CLI::ParseError as CLI11 does; its exit status.
-  int Exit(const CLI::ParseError& e) { return app_.exit(e); }
+  /// Prints what CLI11 says of `e` (help and --version to stdout, a usage error to stderr) and
+  /// returns the exit status: 0 for help and --version, 2 for a malformed command line (README,
+  /// "Exit status").
+  int Exit(const CLI::ParseError& e) { return app_.exit(e) == 0 ? 0 : kUsageExit; }
+  static constexpr int kUsageExit = 2;
   CLI::App& app() { return app_; }
 
  private:

@@ -88,6 +88,7 @@ void PrintDriverDetails(const DriveConfig& c) {
 }
 
 int Info(const std::string& path) {
+  const ToolJudgesTimestep judged;  // the verdict is printed below, whole
   const StepperModel sm = LoadStepperModel(path);
   const mjModel* m = sm.model.get();
   const double h = m->opt.timestep;

@@ -14,9 +14,9 @@
 namespace mjstepper::tools {
 
 /// What an experiment computes: run, sweep, map, pull-out, identify, resonance test, sizing.
-using Result = std::variant<RunResult, std::vector<SweepPoint>, std::vector<MapPoint>,
-                            std::vector<PullOutPoint>, Identified, ResonanceResult, SizeResult,
-                            AttachResult>;
+using Result =
+    std::variant<RunResult, std::vector<SweepPoint>, std::vector<MapPoint>,
+                 std::vector<PullOutPoint>, Identified, ResonanceResult, SizeResult, AttachResult>;
 
 /// Checks that the programs the command will start (ffmpeg, the plotting Python) are there,
 /// before any work; throws naming the missing one.

@@ -172,6 +172,7 @@ void AddKlipperSteps(const StepperModel& sm, RunFolder* folder, RunOptions* opti
 }  // namespace
 
 RunResult Run(const RunOptions& given, std::ostream& progress) {
+  const ToolJudgesTimestep judged;  // CheckTimestep below prints the whole verdict
   RequireInRange("--duration", Range("duration"), given.duration);
   RequireInRange("--log-every", Range("log-every"), given.log_every);
   StepperModel sm = LoadStepperModel(given.model, given.overrides);

@@ -12,6 +12,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -62,10 +63,14 @@ ModelPtr Compile(mjSpec* spec, const mjVFS* vfs) {
 // MuJoCo's warnings (the plugin's among them) on stderr, each distinct one once per run, instead of
 // MuJoCo's default: stdout and a MUJOCO_LOG.TXT in the working directory. Sweeps create one mjData
 // per run and thread, each of which would repeat the plugin's load-time warning.
+std::mutex warn_mutex;
+int tool_judges_timestep = 0;  // ToolJudgesTimestep scopes alive (under warn_mutex)
+
 void WarnOnce(const char* message) {
-  static std::mutex mutex;
   static std::set<std::string> seen;
-  const std::lock_guard<std::mutex> lock(mutex);
+  const std::lock_guard<std::mutex> lock(warn_mutex);
+  constexpr std::string_view kTimestep = "mjstepper: timestep ";  // the plugin's load warning
+  if (tool_judges_timestep > 0 && std::string_view(message).starts_with(kTimestep)) return;
   if (seen.insert(message).second) std::fprintf(stderr, "warning: %s\n", message);
 }
 
@@ -78,6 +83,15 @@ std::string PluginPath() {
 }  // namespace
 
 ModelPtr CompileSpec(mjSpec* spec, const mjVFS* vfs) { return Compile(spec, vfs); }
+
+ToolJudgesTimestep::ToolJudgesTimestep() {
+  const std::lock_guard<std::mutex> lock(warn_mutex);
+  ++tool_judges_timestep;
+}
+ToolJudgesTimestep::~ToolJudgesTimestep() {
+  const std::lock_guard<std::mutex> lock(warn_mutex);
+  --tool_judges_timestep;
+}
 
 void LoadPluginLibrary() {
   static const bool loaded = [] {

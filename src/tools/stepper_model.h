@@ -68,6 +68,17 @@ ModelPtr CompileSpec(mjSpec* spec, const mjVFS* vfs = nullptr);
 /// tools. Throws std::runtime_error when MuJoCo does not then know mjstepper.stepper.
 void LoadPluginLibrary();
 
+/// While one lives, the plugin's own load warning on the timestep (core/timestep_rule.h's
+/// Summary, "mjstepper: timestep …") is not shown: the tool judges the timestep itself and prints
+/// the whole verdict (run, info), so each warning is shown once.
+class ToolJudgesTimestep {
+ public:
+  ToolJudgesTimestep();
+  ~ToolJudgesTimestep();
+  ToolJudgesTimestep(const ToolJudgesTimestep&) = delete;
+  ToolJudgesTimestep& operator=(const ToolJudgesTimestep&) = delete;
+};
+
 /// Throws std::runtime_error with MuJoCo's own message on any load or compile error. `overrides`
 /// change steppers' <config> values for this load only (config_overrides.h). `text`, when given,
 /// is the MJCF itself, read in place of the file `path` (which then only names it); it takes no

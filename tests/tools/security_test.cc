@@ -379,3 +379,47 @@ TEST(Security, ReadmeCarriesTheOptionRangeTable) {
 }
 
 }  // namespace
+
+namespace mjstepper::tools {
+namespace {
+
+// Issue 32, item 5: a malformed command line exits 2 (CLI11's 105-109 before), a failed run 1,
+// --version prints the version and the MuJoCo it was built against (README, "Exit status").
+TEST(Conventions, UsageErrorsExitTwoFailedRunsOneAndVersionZero) {
+  for (const std::vector<std::string>& args :
+       std::vector<std::vector<std::string>>{{"run", kModel, "--duration", "0.01", "--bogus"},
+                                             {"run"},
+                                             {"run", kModel},
+                                             {"run", "no/such/model.xml", "--duration", "1"},
+                                             {"run", kModel, "--duration", "1e9"},
+                                             {"frobnicate"}}) {
+    const Result r = Cli(args);
+    EXPECT_EQ(r.status, 2) << ::testing::PrintToString(args) << ": " << r.output;
+  }
+  const Result failed =
+      Cli({"run", kModel, "--duration", "0.01", "--ctrl", "shaft=bogus(1)", "--quiet"});
+  EXPECT_EQ(failed.status, 1) << failed.output;
+  const Result version = Cli({"--version"});
+  EXPECT_EQ(version.status, 0) << version.output;
+  EXPECT_THAT(version.output, AllOf(HasSubstr("mjstepper 0."), HasSubstr("(MuJoCo 4.")));
+}
+
+// Issue 32, item 5: a too-coarse timestep is warned of once (it was printed three times: the
+// plugin's load warning, cut at MuJoCo's 1000 characters, again whole, and the command's own).
+TEST(Conventions, EachWarningOnce) {
+  const std::string arm6 = MJSTEPPER_SOURCE_DIR "/models/arm6.xml";  // ships at 1 ms
+  for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{
+           {"run", arm6, "--duration", "0.002", "--allow-coarse", "--quiet"}, {"info", arm6}}) {
+    const Result r = Cli(args);
+    EXPECT_EQ(r.status, 0) << r.output;
+    size_t count = 0;
+    for (size_t at = r.output.find("too coarse"); at != std::string::npos;
+         at = r.output.find("too coarse", at + 1)) {
+      ++count;
+    }
+    EXPECT_EQ(count, 1u) << args[0] << ": " << r.output;
+  }
+}
+
+}  // namespace
+}  // namespace mjstepper::tools
