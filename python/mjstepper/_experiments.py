@@ -118,7 +118,7 @@ def speeds_text(speeds):
 
 # The options whose values are text (paths, names, profiles, --set items); every other takes
 # numbers only (a str there is a TypeError, as a list where a number belongs).
-_TEXT_OPTIONS = {"ctrl", "log", "keyframe", "start", "stepper", "meshdir", "render", "frames", "camera", "plot", "accel_log",
+_TEXT_OPTIONS = {"ctrl", "klipper", "log", "keyframe", "start", "stepper", "meshdir", "render", "frames", "camera", "plot", "accel_log",
                  "accelerometer", "actuator", "out", "speeds", "vary", "axis", "dyno", "set",
                  "overlay", "move", "speed", "accel"}
 

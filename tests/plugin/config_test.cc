@@ -262,6 +262,10 @@ TEST(Config, ReadmeTablesAreTheTables) {
   for (const char* name : AttributeNames()) {
     EXPECT_THAT(text.str(), HasSubstr(std::string("| `") + name + "`")) << name;
   }
+  // The sensor's size where the text gives it (issue 32: it said 25 values, the table has 30).
+  const std::string count = std::to_string(kNumSignals) + " values";
+  EXPECT_THAT(text.str(), HasSubstr("signals: " + count));
+  EXPECT_THAT(text.str(), HasSubstr(count + " for the stepper on actuator NAME"));
 }
 
 // Issue 17, driver presets: `driver` picks the chip's drive and a printer's 24 V, and refuses a

@@ -302,6 +302,17 @@ class OneEngine(unittest.TestCase):
         self.assertAlmostEqual(float(trace.omega_cmd[-1]), 150 * 2 * math.pi / 60 * (1 - 1 / 6000),
                                places=9)
 
+    def test_run_replays_a_klipper_print(self):
+        # issue 31, item 6: run(klipper=MAP) is `run --klipper MAP`.
+        corexy = os.path.join(SOURCE, "models", "corexy.xml")
+        prints = os.path.join(SOURCE, "models", "prints", "square20", "mzv.map")
+        base = os.path.join(os.getcwd(), "klipper")
+        self.cli("run", corexy, "--duration", "0.3", "--klipper", prints, "--quiet", "--log",
+                 base + "_cli.csv")
+        result = mjstepper.run(corexy, 0.3, klipper=prints, log=base + "_py.csv", traces=False)
+        self.assertEqual(read(base + "_py.csv"), read(base + "_cli.csv"))
+        self.assertEqual(result.steppers.lost_steps.tolist(), [0, 0])
+
     def test_attach(self):
         # issue 29, item 2: the Python twin of `mjstepper attach`, on the test's two-link URDF.
         robot = os.path.join(SOURCE, "tests", "tools", "models", "two_link.urdf")
