@@ -377,6 +377,11 @@ DriveConfig Parse(const AttributeSource& a) {
              fmt::format("exceeds {}'s supply range, at most {:g} V", chip->name,
                          chip->max_bus_voltage));
   }
+  if (chip != nullptr && c.bus_voltage < chip->min_bus_voltage) {  // (the default 24 V never is)
+    ThrowBad(kAttrBusVoltage, *a.Raw(kAttrBusVoltage),
+             fmt::format("is below {}'s supply range, at least {:g} V", chip->name,
+                         chip->min_bus_voltage));
+  }
   c.isr_period = a.Real(kAttrIsrPeriod, c.isr_period, Rule::kPositive);
   c.compute_delay = a.Real(kAttrComputeDelay, c.compute_delay, Rule::kNonNegative);
   if (!(c.compute_delay < c.isr_period)) {

@@ -301,5 +301,49 @@ TEST(Config, DriverChipPicksTheDriveAndBoundsTheSupply) {
               AllOf(HasSubstr("driver"), HasSubstr("not read by drive current_microstep")));
 }
 
+// Issue 33: a chip makes the microstep settings its MRES register or MS pins give (powers of two
+// up to 256 on the TMC chips, 16 on the A4988, 32 on the DRV8825) and runs from the bottom of its
+// supply range (TMC2209 4.75 V); anything else is refused, naming the attribute, the value and
+// the chip's range.
+TEST(Config, DriverChipRefusesMicrostepsAndSuppliesItCannotMake) {
+  auto config = [](std::map<std::string, std::string> kv) {
+    kv["motor"] = "qsh4218_51";
+    kv["input"] = "steps";
+    return ParseMap(kv);
+  };
+  struct Case {
+    const char* driver;
+    const char* microsteps;
+    const char* range;  // "" when accepted
+  };
+  for (const Case& c :
+       {Case{"tmc2209", "3", "tmc2209 makes 1, 2, 4, … 256"},
+        Case{"tmc2209", "100", "tmc2209 makes 1, 2, 4, … 256"}, Case{"tmc2209", "256", ""},
+        Case{"tmc5160", "1", ""}, Case{"a4988", "16", ""},
+        Case{"a4988", "32", "a4988 makes 1, 2, 4, … 16"},
+        Case{"a4988", "256", "a4988 makes 1, 2, 4, … 16"}, Case{"drv8825", "32", ""},
+        Case{"drv8825", "256", "drv8825 makes 1, 2, 4, … 32"}}) {
+    SCOPED_TRACE(std::string(c.driver) + " " + c.microsteps);
+    const auto r = config({{"driver", c.driver}, {"microsteps", c.microsteps}});
+    if (c.range[0] == '\0') {
+      EXPECT_TRUE(std::holds_alternative<DriveConfig>(r)) << std::get<std::string>(r);
+    } else {
+      ASSERT_TRUE(std::holds_alternative<std::string>(r));
+      EXPECT_THAT(std::get<std::string>(r),
+                  AllOf(HasSubstr("microsteps"), HasSubstr(c.microsteps), HasSubstr(c.range)));
+    }
+  }
+  const auto low = config({{"driver", "tmc2209"}, {"bus_voltage", "4"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(low));
+  EXPECT_THAT(std::get<std::string>(low),
+              AllOf(HasSubstr("bus_voltage"), HasSubstr("below tmc2209's supply range"),
+                    HasSubstr("at least 4.75 V")));
+  const auto low5160 = config({{"driver", "tmc5160"}, {"bus_voltage", "7"}});
+  ASSERT_TRUE(std::holds_alternative<std::string>(low5160));
+  EXPECT_THAT(std::get<std::string>(low5160), HasSubstr("at least 8 V"));
+  EXPECT_TRUE(std::holds_alternative<DriveConfig>(
+      config({{"driver", "tmc2209"}, {"bus_voltage", "4.75"}})));
+}
+
 }  // namespace
 }  // namespace mjstepper::plugin

@@ -36,16 +36,19 @@ const std::vector<DriverChip>& DriverChips() {
   static const std::vector<DriverChip> chips = {
       {.name = "tmc2209",
        .drive = "spreadcycle",
-       .source = "Trinamic TMC2209 datasheet Rev. 1.09: 4.75-29 V, 2 A RMS (2.8 A peak), f_CLK "
+       .source = "Trinamic TMC2209 datasheet Rev. 1.09: 4.75-29 V, MRES 1-256 microsteps, 2 A RMS "
+                 "(2.8 A peak), f_CLK "
                  "12 MHz, t_OFF = (24 + 32·TOFF)/f_CLK, TBL 16/24/32/40 clocks, StallGuard4 in "
                  "StealthChop only; BigTreeTech "
                  "module R_S 0.110 Ω; Klipper's CHOPCONF defaults TOFF 3, HSTRT 5, HEND 0, TBL 2, "
                  "IHOLDDELAY 8, TPOWERDOWN 20",
+       .min_bus_voltage = 4.75,
        .max_bus_voltage = 29,
        .max_current = 2.0,
        .sense_resistor = 0.110,
        .scaling = CurrentScaling::kCsVsense,
        .microsteps = 16,
+       .max_microsteps = 256,
        .interpolate = true,
        .stallguard_spread = 0,
        .stallguard_stealth = 4,
@@ -64,15 +67,18 @@ const std::vector<DriverChip>& DriverChips() {
        .tpowerdown = 20},
       {.name = "tmc2130",
        .drive = "spreadcycle",
-       .source = "Trinamic TMC2130 datasheet Rev. 1.15: 4.75-46 V, 1.2 A RMS (QFN; 2.5 A peak), "
+       .source = "Trinamic TMC2130 datasheet Rev. 1.15: 4.75-46 V, MRES 1-256 microsteps, 1.2 A "
+                 "RMS (QFN; 2.5 A peak), "
                  "f_CLK 13.2 MHz typical, t_OFF = (12 + 32·TOFF)/f_CLK, TBL 16/24/36/54 clocks, "
                  "StallGuard2 in SpreadCycle; module R_S 0.110 Ω; Klipper's defaults TOFF 4, HSTRT "
                  "0, HEND 7, TBL 1, IHOLDDELAY 8, TPOWERDOWN 0",
+       .min_bus_voltage = 4.75,
        .max_bus_voltage = 46,
        .max_current = 1.2,
        .sense_resistor = 0.110,
        .scaling = CurrentScaling::kCsVsense,
        .microsteps = 16,
+       .max_microsteps = 256,
        .interpolate = true,
        .stallguard_spread = 2,
        .stallguard_stealth = 0,
@@ -91,16 +97,19 @@ const std::vector<DriverChip>& DriverChips() {
        .tpowerdown = 0},
       {.name = "tmc5160",
        .drive = "spreadcycle",
-       .source = "Trinamic TMC5160 datasheet Rev. 1.14: 8-60 V, external MOSFETs (up to 20 A; "
+       .source = "Trinamic TMC5160 datasheet Rev. 1.14: 8-60 V, MRES 1-256 microsteps, external "
+                 "MOSFETs (up to 20 A; "
                  "3 A RMS here, the BigTreeTech module's rating), f_CLK 12 MHz, t_OFF = "
                  "(24 + 32·TOFF)/f_CLK, TBL 16/24/36/54 clocks, StallGuard2 in SpreadCycle, R_S "
                  "0.075 Ω; Klipper's defaults "
                  "TOFF 3, HSTRT 5, HEND 2, TBL 2, IHOLDDELAY 6, TPOWERDOWN 10",
+       .min_bus_voltage = 8,
        .max_bus_voltage = 60,
        .max_current = 3.0,
        .sense_resistor = 0.075,
        .scaling = CurrentScaling::kGlobalScale,
        .microsteps = 16,
+       .max_microsteps = 256,
        .interpolate = true,
        .stallguard_spread = 2,
        .stallguard_stealth = 0,
@@ -119,14 +128,17 @@ const std::vector<DriverChip>& DriverChips() {
        .tpowerdown = 10},
       {.name = "a4988",
        .drive = "chopper",
-       .source = "Allegro A4988 datasheet (A4988-DS Rev. 7): 8-35 V, ±2 A (1.41 A RMS), fixed "
+       .source = "Allegro A4988 datasheet (A4988-DS Rev. 7): 8-35 V, MS1-MS3 full to 1/16 step, ±2 "
+                 "A (1.41 A RMS), fixed "
                  "off-time 30 µs, blank 1 µs, mixed decay fast for 31.25 % of t_off, I_TripMax = "
                  "VREF/(8·R_S); Pololu module R_S 0.068 Ω",
+       .min_bus_voltage = 8,
        .max_bus_voltage = 35,
        .max_current = 2.0 / std::sqrt(2.0),
        .sense_resistor = 0.068,
        .scaling = CurrentScaling::kExact,
        .microsteps = 16,
+       .max_microsteps = 16,
        .interpolate = false,
        .stallguard_spread = 0,
        .stallguard_stealth = 0,
@@ -145,14 +157,17 @@ const std::vector<DriverChip>& DriverChips() {
        .tpowerdown = 0},
       {.name = "drv8825",
        .drive = "chopper",
-       .source = "TI DRV8825 datasheet (SLVSA73F): 8.2-45 V, 2.5 A full scale (1.77 A RMS), "
+       .source = "TI DRV8825 datasheet (SLVSA73F): 8.2-45 V, MODE0-2 full to 1/32 step, 2.5 A full "
+                 "scale (1.77 A RMS), "
                  "fixed-frequency PWM 30 kHz, blank 3.75 µs, mixed decay fast until 75 % of the "
                  "PWM cycle, I_CHOP = VREF/(5·R_S); Pololu module R_S 0.100 Ω",
+       .min_bus_voltage = 8.2,
        .max_bus_voltage = 45,
        .max_current = 2.5 / std::sqrt(2.0),
        .sense_resistor = 0.100,
        .scaling = CurrentScaling::kExact,
        .microsteps = 16,
+       .max_microsteps = 32,
        .interpolate = false,
        .stallguard_spread = 0,
        .stallguard_stealth = 0,
@@ -214,7 +229,8 @@ DriverChip::Regulation DriverChip::Regulate(double run_current, double r_sense) 
 
 std::string DriverTableMarkdown() {
   std::string out =
-      "| `driver` | drive | bus (V) | current (A RMS) | R_S (Ω) | microsteps | chopper defaults | "
+      "| `driver` | drive | bus (V) | current (A RMS) | R_S (Ω) | microsteps (powers of two) | "
+      "chopper defaults | "
       "source |\n"
       "|---|---|---|---|---|---|---|---|\n";
   for (const DriverChip& c : DriverChips()) {
@@ -226,8 +242,9 @@ std::string DriverTableMarkdown() {
                           c.blank_time * 1e6, c.fast_fraction * 100)
             : fmt::format("t_off {:g} µs, blank {:g} µs, fast {:g} %", c.off_time * 1e6,
                           c.blank_time * 1e6, c.fast_fraction * 100);
-    out += fmt::format("| `{}` | `{}` | ≤ {:g} | ≤ {:.3g} | {:g} | {}{} | {} | {} |\n", c.name,
-                       c.drive, c.max_bus_voltage, c.max_current, c.sense_resistor, c.microsteps,
+    out += fmt::format("| `{}` | `{}` | {:g}-{:g} | ≤ {:.3g} | {:g} | {} (1-{}){} | {} | {} |\n",
+                       c.name, c.drive, c.min_bus_voltage, c.max_bus_voltage, c.max_current,
+                       c.sense_resistor, c.microsteps, c.max_microsteps,
                        c.interpolate ? ", MicroPlyer to 256" : "", chopper, c.source);
   }
   return out;

@@ -19,8 +19,9 @@ inline constexpr AttributeSpec kAttrDriver{
     "The driver chip (SPEC §8): `tmc2209`, `tmc2130`, `tmc5160` (`spreadcycle` by default, "
     "`stealthchop` on request), `a4988`, `drv8825` (`chopper`). Sets the drive, the chopper's "
     "timing, the clock, the interpolation and the sense resistor's current scaling from the "
-    "chip's datasheet (see \"Driver chips\"); refuses a `bus_voltage` or `run_current` beyond "
-    "the chip's. `none`: the drive's own defaults."};
+    "chip's datasheet (see \"Driver chips\"); refuses a `bus_voltage` outside the chip's supply "
+    "range, a `run_current` beyond it and `microsteps` it cannot make. `none`: the drive's own "
+    "defaults."};
 
 inline constexpr AttributeSpec kAttrSenseResistor{
     "sense_resistor", "real", "the chip's common module (0.110, 0.075, 0.068, 0.100)", "Ω",
@@ -48,11 +49,13 @@ struct DriverChip {
   const char* name;        ///< MJCF value of `driver`
   const char* drive;       ///< the drive it selects unless `drive` is given
   const char* source;      ///< the datasheet (and Klipper's defaults) the row cites
+  double min_bus_voltage;  ///< V, the bottom of the supply's operating range
   double max_bus_voltage;  ///< V, the top of the supply's operating range
   double max_current;      ///< A RMS the chip (with its module's cooling) is rated for
   double sense_resistor;   ///< Ω, R_S of the common module
   CurrentScaling scaling;
   int microsteps;          ///< the usual setting (MS pins or MRES) on printer boards
+  int max_microsteps;      ///< the finest it makes; every setting is a power of two up to it
   bool interpolate;        ///< MicroPlyer (TMC) by default
   int stallguard_spread;   ///< StallGuard version in SpreadCycle (2, or 0: none)
   int stallguard_stealth;  ///< StallGuard version in StealthChop (4, or 0: none)

@@ -264,6 +264,13 @@ struct MicrostepTable {
     }
     t.peak_current = std::sqrt(2.0) * run_current;
     t.microsteps = a.Integer(kAttrMicrosteps, chip != nullptr ? chip->microsteps : 16, 1, 256);
+    // A chip makes powers of two up to its finest (its MRES register or MS pins; issue 33).
+    if (chip != nullptr &&
+        (t.microsteps > chip->max_microsteps || (t.microsteps & (t.microsteps - 1)) != 0)) {
+      ThrowBad(kAttrMicrosteps, std::to_string(t.microsteps),
+               fmt::format("{} makes 1, 2, 4, … {} microsteps (powers of two)", chip->name,
+                           chip->max_microsteps));
+    }
     t.interpolate =
         a.Choice(kAttrInterpolate, interpolate_by_default ? "on" : "off", {"on", "off"}) == "on";
     if (auto q = a.Reals(kAttrCurrentTable, 0.0, 1.0, t.microsteps + 1, t.microsteps + 1)) {
