@@ -11,6 +11,15 @@
 #include "core/command_profile.h"
 #include "output_file.h"
 
+// The version and the MuJoCo built against, from CMake (CMakeLists.txt, from pyproject.toml); a
+// build that does not set them (the fuzzers' own) says so.
+#ifndef MJSTEPPER_VERSION
+#define MJSTEPPER_VERSION "(unversioned build)"
+#endif
+#ifndef MJSTEPPER_MUJOCO_VERSION
+#define MJSTEPPER_MUJOCO_VERSION "unknown"
+#endif
+
 namespace mjstepper::tools {
 namespace {
 
