@@ -113,18 +113,36 @@ void PlacementWarnings(const ResonanceOptions& o, const mjModel* m,
   }
 }
 
+// The PSD's segment in samples (0.5 s, SPEC §9), after checking that `samples` accelerometer
+// samples fill one and that the tested band holds at least three of its bins (k·rate/segment Hz).
+// Called before the simulation with the samples it will give (issue 33: the test checked only
+// after simulating, and left PREFIX_raw.csv behind) and on the samples it gave.
+std::size_t CheckSpectrumFits(const ResonanceOptions& o, std::size_t samples) {
+  const double rate = o.adxl.rate;  // Hz
+  const auto segment = static_cast<std::size_t>(std::lround(0.5 * rate));
+  if (samples < segment) {
+    throw std::invalid_argument(fmt::format(
+        "the test gives {} accelerometer samples, fewer than one 0.5 s segment ({}): lengthen it "
+        "(--min-freq, --max-freq, --hz-per-sec)",
+        samples, segment));
+  }
+  const double bin = rate / static_cast<double>(segment);  // Hz
+  const double bins = std::floor(o.test.max_freq / bin) - std::ceil(o.test.min_freq / bin) + 1;
+  if (bins < 3) {
+    throw std::invalid_argument(fmt::format(
+        "--min-freq {:g} to --max-freq {:g}: the PSD's bins are {:g} Hz apart (0.5 s segments); "
+        "give a band of at least three of them",
+        o.test.min_freq, o.test.max_freq, bin));
+  }
+  return segment;
+}
+
 // The PSDs (Welch, 0.5 s Hann segments, SPEC §9) of the three axes in Klipper's units, the shapers
 // fitted to the tested axis' and PREFIX_psd.csv.
 void WriteResponse(const ResonanceOptions& o, const std::vector<AccelSample>& samples,
                    ResonanceResult* r) {
   const double rate = o.adxl.rate;  // Hz
-  const auto segment = static_cast<std::size_t>(std::lround(0.5 * rate));
-  if (samples.size() < segment) {
-    throw std::invalid_argument(fmt::format(
-        "the test gave {} accelerometer samples, fewer than one 0.5 s segment ({}): lengthen it "
-        "(--min-freq, --max-freq, --hz-per-sec)",
-        samples.size(), segment));
-  }
+  const std::size_t segment = CheckSpectrumFits(o, samples.size());
   std::array<Spectrum, 3> spectra;
   for (int a = 0; a < 3; ++a) {
     std::vector<double> values(samples.size());
@@ -141,12 +159,6 @@ void WriteResponse(const ResonanceOptions& o, const std::vector<AccelSample>& sa
     band_f.push_back(f);
     band_psd.push_back(spectra[axis].psd[k]);
     rows.push_back({x, y, z, x + y + z});
-  }
-  if (band_f.size() < 3) {
-    throw std::invalid_argument(fmt::format(
-        "--min-freq {:g} to --max-freq {:g}: the PSD's bins are {:g} Hz apart (0.5 s segments); "
-        "give a band of at least three of them",
-        o.test.min_freq, o.test.max_freq, rate / segment));
   }
   r->frequency = band_f;
   r->psd = band_psd;  // to (m/s²)²/Hz, as ResonanceResult documents it
@@ -215,6 +227,7 @@ ResonanceResult RunResonanceTest(const ResonanceOptions& o, std::ostream& progre
   if (o.axis != 'x' && o.axis != 'y') {
     throw std::invalid_argument(fmt::format("--axis {}: must be x or y", o.axis));
   }
+  CheckSpectrumFits(o, static_cast<std::size_t>(o.test.Duration() * o.adxl.rate));
   const StepperModel sm = LoadStepperModel(o.model, o.overrides);
   const mjModel* m = sm.model.get();
   const auto kinematics = Kinematics(m, sm.steppers);

@@ -347,6 +347,16 @@ TEST(ResonanceTest, ModelWithoutKinematicsOrAccelerometerIsRefusedByName) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("bins are 2 Hz apart"));
   }
+  // Issue 33: both are refused before the simulation, so no raw log is left behind.
+  EXPECT_FALSE(std::filesystem::exists(TempDir() / "n_raw.csv"));
+  narrow.test = {.min_freq = 20, .max_freq = 24, .accel_per_hz = 0.075, .hz_per_sec = 10};
+  try {
+    RunResonanceTest(narrow, progress);  // 0.4 s: less than one 0.5 s segment
+    ADD_FAILURE() << "a test shorter than a PSD segment ran";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("fewer than one 0.5 s segment"));
+  }
+  EXPECT_FALSE(std::filesystem::exists(TempDir() / "n_raw.csv"));
   ResonanceOptions o = Options(Write("k.xml", BeltModel(kKinematics)), (TempDir() / "k").string());
   o.accelerometer = "nozzle";
   try {
