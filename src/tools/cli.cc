@@ -2,7 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <charconv>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <tuple>
@@ -43,6 +46,26 @@ void AddStart(CLI::App* app, StartMode* start) {
           },
           "settled|aligned"));
 }
+
+// A CLI11 validator for an output path or prefix: not empty (issue 33: `--out ''` wrote files
+// named by their suffix alone, `_raw.csv`, into the working folder).
+const CLI::Validator kNonEmptyPath(
+    [](std::string& text) -> std::string {
+      return text.empty() ? "an empty path: give a file or a prefix" : "";
+    },
+    "PATH", "non-empty");
+
+// A CLI11 validator for a 64-bit unsigned integer, checked on its text before CLI11 converts it
+// (issue 33: `--seed -1` wrapped to 2^64 − 1 and a larger number was clamped, both silently).
+const CLI::Validator kUnsigned64(
+    [](std::string& text) -> std::string {
+      std::uint64_t value = 0;
+      const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+      if (error == std::errc() && end == text.data() + text.size()) return "";
+      return fmt::format("\"{}\" is not an integer in [0, {}]", text,
+                         std::numeric_limits<std::uint64_t>::max());
+    },
+    "UINT64", "unsigned 64-bit");
 
 // A CLI11 validator: a finite number within the named range (NaN and inf fail); its description,
 // "in [lo, hi] unit", shows in --help.
@@ -149,7 +172,8 @@ CommandLine::CommandLine(bool out_optional)
         ->required();
     sub->add_option("--actuator", *actuator, "the stepper (default: the only one)");
     sub->add_option("--out", c.out, "output prefix: writes PREFIX.csv and PREFIX.png")
-        ->required(!out_optional);
+        ->required(!out_optional)
+        ->check(kNonEmptyPath);
     if (sub != pullout_) {
       AddBounded(sub, "settle", so->settle, "s after reaching speed before measuring")
           ->default_val(so->settle);
@@ -198,7 +222,8 @@ CommandLine::CommandLine(bool out_optional)
       ->add_option("--out", c.out,
                    "output prefix: PREFIX_raw.csv (Klipper's raw accelerometer format), "
                    "PREFIX_psd.csv (Klipper's calibration CSV), PREFIX.png")
-      ->required();
+      ->required()
+      ->check(kNonEmptyPath);
   AddBounded(resonance_, "min-freq", c.resonance.test.min_freq, "Hz (Klipper's default 5)");
   AddBounded(resonance_, "max-freq", c.resonance.test.max_freq, "Hz (Klipper's 133.33)");
   AddBounded(resonance_, "accel-per-hz", accel_per_hz_, "mm/s² per Hz (Klipper's 75)");
@@ -214,7 +239,8 @@ CommandLine::CommandLine(bool out_optional)
   AddBounded(resonance_, "accel-noise", accel_noise_,
              "µg/√Hz, the ADXL345's noise density on X and Y (data sheet: 290; Z at "
              "430/290 of it; 0: none)");
-  resonance_->add_option("--seed", c.resonance.adxl.seed, "the accelerometer noise's seed");
+  resonance_->add_option("--seed", c.resonance.adxl.seed, "the accelerometer noise's seed")
+      ->check(kUnsigned64);
   resonance_->add_option("--set", sets_, kSetHelp);
   resonance_->add_flag("--quiet", quiet_, "no progress line");
 
@@ -247,7 +273,8 @@ CommandLine::CommandLine(bool out_optional)
     sub->add_option("--out", c.out,
                     "output prefix: PREFIX.csv (the table), and per joint PREFIX_JOINT.png, "
                     "PREFIX_JOINT_demand.csv, PREFIX_JOINT_pullout.csv")
-        ->required(!out_optional);
+        ->required(!out_optional)
+        ->check(kNonEmptyPath);
     AddBounded(sub, "threads", c.size.threads, "pull-out workers (default: one per core)");
     sub->add_option("--set", sets_, kSetHelp);
     sub->add_option("--mass", masses_, "BODY=KG: a body's mass, e.g. payload=0.5 (repeatable)");
@@ -280,7 +307,7 @@ CommandLine::CommandLine(bool out_optional)
                    "run_current=1.7,ihold=21,microsteps=32; gear= sets the actuator's gear, "
                    "every other key is a plugin attribute (plugin/README.md)")
       ->required();
-  attach_->add_option("--out", c.attach.out, "the MJCF written")->required();
+  attach_->add_option("--out", c.attach.out, "the MJCF written")->required()->check(kNonEmptyPath);
   attach_
       ->add_option("--meshdir", c.attach.meshdir,
                    "the robot's mesh folder, each mesh by its file's base name (for a URDF's "
@@ -291,7 +318,7 @@ CommandLine::CommandLine(bool out_optional)
   plot_->add_option("csv", c.plot_csvs, "CSV written by run, sweep or pullout")
       ->required()
       ->check(CLI::ExistingFile);
-  plot_->add_option("--out", c.out, "PNG")->required();
+  plot_->add_option("--out", c.out, "PNG")->required()->check(kNonEmptyPath);
   plot_->add_option("--labels", c.plot_labels, "one label per sweep CSV");
   plot_->add_option("--title", c.plot_title, "title");
   plot_->add_flag("--versus-speed", c.versus_speed,

@@ -404,6 +404,29 @@ TEST(Conventions, UsageErrorsExitTwoFailedRunsOneAndVersionZero) {
   EXPECT_THAT(version.output, AllOf(HasSubstr("mjstepper 0."), HasSubstr("(MuJoCo 4.")));
 }
 
+// Issue 33 (low): `resonance-test --seed -1` wrapped to 2^64 − 1 and 99999999999999999999 was
+// clamped, silently; `--out ''` wrote `_raw.csv` into the working folder. Both are usage errors
+// now, named, and nothing is written.
+TEST(Conventions, SeedsAndEmptyOutputPathsAreRefused) {
+  const fs::path dir = FreshDir("seed");
+  const std::string bed = MJSTEPPER_SOURCE_DIR "/models/bedslinger.xml";
+  for (const char* seed : {"-1", "99999999999999999999", "1e3"}) {
+    const Result r = Cli({"resonance-test", bed, "--axis", "y", "--seed", seed, "--out",
+                          (dir / "r").string(), "--quiet"});
+    EXPECT_EQ(r.status, 2) << seed << ": " << r.output;
+    EXPECT_THAT(r.output, HasSubstr("--seed"));
+  }
+  for (const char* sub : {"resonance-test", "sweep", "size"}) {
+    std::vector<std::string> args = {sub, bed, "--out", ""};
+    if (std::string(sub) == "resonance-test") args.insert(args.end(), {"--axis", "x"});
+    if (std::string(sub) == "sweep") args.insert(args.end(), {"--speeds", "10rpm"});
+    const Result r = Cli(args);
+    EXPECT_EQ(r.status, 2) << sub << ": " << r.output;
+    EXPECT_THAT(r.output, HasSubstr("--out: an empty path")) << sub;
+  }
+  EXPECT_TRUE(Entries(dir).empty());
+}
+
 // Issue 32, item 5: a too-coarse timestep is warned of once (it was printed three times: the
 // plugin's load warning, cut at MuJoCo's 1000 characters, again whole, and the command's own).
 TEST(Conventions, EachWarningOnce) {
