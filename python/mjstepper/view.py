@@ -43,13 +43,24 @@ def _config(spec, actuator):
     return dict(next(p for p in spec.plugins if p.name == actuator.plugin.name).config)
 
 
+def _microsteps(config):
+    """`microsteps` read as the plugin reads it, a number (`1e2` is 100; int() raised a
+    ValueError, issue 33). A text the plugin refuses is left to its own message when the model
+    compiles: the slider takes 16 meanwhile."""
+    try:
+        value = float(config.get("microsteps") or 16)
+    except ValueError:
+        return 16
+    return int(value) if math.isfinite(value) and value >= 1 else 16
+
+
 def _slider_range(config):
     """The command's slider range for a stepper's input mode (ctrl's unit)."""
     mode = config.get("input", _DEFAULT_INPUT)
     if mode == "velocity":
         return (-600 / RPM, 600 / RPM)  # rad/s
     if mode == "steps":
-        microsteps = int(config.get("microsteps", "16") or 16)
+        microsteps = _microsteps(config)
         return (-2 * 200 * microsteps, 2 * 200 * microsteps)  # microsteps
     return (-4 * math.pi, 4 * math.pi)  # rad
 

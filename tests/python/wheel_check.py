@@ -302,6 +302,15 @@ class OneEngine(unittest.TestCase):
         self.assertAlmostEqual(float(trace.omega_cmd[-1]), 150 * 2 * math.pi / 60 * (1 - 1 / 6000),
                                places=9)
 
+    def test_the_view_reads_microsteps_as_the_plugin_does(self):
+        # issue 33: microsteps="1e2", which the plugin takes as 100, raised a ValueError in the
+        # view's int(); a text the plugin refuses leaves the slider at 16 (the plugin names it).
+        from mjstepper import view
+        self.assertEqual(view._slider_range({"input": "steps", "microsteps": "1e2"}),
+                         (-40000, 40000))
+        self.assertEqual(view._slider_range({"input": "steps", "microsteps": "many"}),
+                         (-6400, 6400))
+
     def test_run_replays_a_klipper_print(self):
         # issue 31, item 6: run(klipper=MAP) is `run --klipper MAP`.
         corexy = os.path.join(SOURCE, "models", "corexy.xml")
