@@ -123,17 +123,29 @@ _TEXT_OPTIONS = {"ctrl", "klipper", "log", "keyframe", "start", "stepper", "mesh
                  "overlay", "move", "speed", "accel"}
 
 
+# The options that are flags: True gives the flag, False leaves it out. Any other option takes a
+# value, and a bool there is a TypeError (issue 33: run(model, True) gave "--duration" no value,
+# and the command read "--quiet" as it).
+_FLAGS = {"allow_coarse", "no_overlay", "quiet"}
+
+
 def command_line(subcommand, positional, options):
     """The command line of `subcommand` with `positional` arguments and `options`
-    ({python_name: value}): None and False leave an option out, True gives a flag, a dict
-    NAME=VALUE items, a list or tuple the option repeated, a number its repr."""
+    ({python_name: value}): None leaves an option out, a flag (_FLAGS) is given for True and left
+    out for False, a dict gives NAME=VALUE items, a list or tuple the option repeated, a number
+    its repr."""
     args = [subcommand] + [_text("model", p) for p in positional]
     for name, value in options.items():
-        if value is None or value is False:
-            continue
         flag = "--" + name.replace("_", "-")
-        if value is True:
-            args.append(flag)
+        if name in _FLAGS:
+            if not isinstance(value, (bool, np.bool_)):
+                raise TypeError(f"{name} = {value!r} ({type(value).__name__}): {name} takes True "
+                                "or False")
+            if value:
+                args.append(flag)
+            continue
+        if value is None:
+            continue
         elif isinstance(value, dict):
             for key, v in value.items():
                 v = (_text(f"{name}[{key!r}]", v) if name in _TEXT_OPTIONS

@@ -302,6 +302,15 @@ class OneEngine(unittest.TestCase):
         self.assertAlmostEqual(float(trace.omega_cmd[-1]), 150 * 2 * math.pi / 60 * (1 - 1 / 6000),
                                places=9)
 
+    def test_a_bool_is_only_a_flag(self):
+        # issue 33: run(model, True) gave --duration no value, and the command read "--quiet" as
+        # it ('--duration: "--quiet" is not a finite number'); a flag takes only True or False.
+        with self.assertRaisesRegex(TypeError, "duration = True .bool.: duration takes a number"):
+            mjstepper.run(RIGID, True)
+        with self.assertRaisesRegex(TypeError, "allow_coarse = 'yes' .str.: allow_coarse takes"):
+            mjstepper.run(RIGID, 0.01, allow_coarse="yes")
+        self.assertEqual(mjstepper.run(RIGID, 0.001, allow_coarse=False, traces=False).steps, 20)
+
     def test_the_view_reads_microsteps_as_the_plugin_does(self):
         # issue 33: microsteps="1e2", which the plugin takes as 100, raised a ValueError in the
         # view's int(); a text the plugin refuses leaves the slider at 16 (the plugin names it).
