@@ -212,6 +212,10 @@ class StepTimes:
     MAX_STEPS = 10_000_000  # as the C++ reader (src/core/step_times.h)
 
     def __init__(self, times, directions=None):
+        # The size first: a broadcast view of 1e9 elements was copied whole by reshape before
+        # this check (issue 33).
+        if np.size(times) > self.MAX_STEPS:
+            raise ValueError(f"more than {self.MAX_STEPS} steps")
         times = np.asarray(times, dtype=float).reshape(-1)
         directions = (np.ones_like(times) if directions is None
                       else np.asarray(directions, dtype=float).reshape(-1))
@@ -245,6 +249,8 @@ class StepTimes:
                 try:
                     if len(fields) > 2:
                         raise ValueError("expected a time and at most a direction")
+                    if any("_" in field for field in fields):  # Python's float() takes 1_0e-3
+                        raise ValueError("a number without underscores, as the command reads it")
                     time_s = float(fields[0])
                     direction = float(fields[1]) if len(fields) == 2 else 1.0
                     if not math.isfinite(time_s) or not 0 <= time_s <= 1e6:
@@ -267,7 +273,10 @@ class StepTimes:
         return float(self.times[-1])
 
     def count(self, t):
-        """The signed count of steps at times <= t (s); t may be an array."""
+        """The signed count of steps at times <= t (s); t may be an array. A NaN time has no
+        count: ValueError (searchsorted put it after every step, issue 33)."""
+        if np.any(np.isnan(t)):
+            raise ValueError("count: a time is NaN")
         i = np.searchsorted(self.times, t, side="right")
         return np.where(i > 0, self.counts[np.maximum(i - 1, 0)], 0.0)[()]
 

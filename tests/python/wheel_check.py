@@ -302,6 +302,21 @@ class OneEngine(unittest.TestCase):
         self.assertAlmostEqual(float(trace.omega_cmd[-1]), 150 * 2 * math.pi / 60 * (1 - 1 / 6000),
                                places=9)
 
+    def test_step_times_refuse_what_the_command_refuses(self):
+        # issue 33: count(nan) gave the final count; a broadcast 1e9-element view was copied
+        # before the size check; read() took 1_0e-3, which the command's reader refuses.
+        steps = mjstepper.StepTimes([0.1, 0.2, 0.3])
+        self.assertEqual(steps.count(0.25), 2)
+        with self.assertRaisesRegex(ValueError, "NaN"):
+            steps.count(float("nan"))
+        with self.assertRaisesRegex(ValueError, "more than 10000000 steps"):
+            mjstepper.StepTimes(np.broadcast_to(np.float64(0.5), (10**9,)))
+        path = os.path.join(os.getcwd(), "underscore.txt")
+        with open(path, "w") as f:
+            f.write("0.001\n1_0e-3\n")
+        with self.assertRaisesRegex(ValueError, "underscore.txt:2: .*without underscores"):
+            mjstepper.StepTimes.read(path)
+
     def test_a_bool_is_only_a_flag(self):
         # issue 33: run(model, True) gave --duration no value, and the command read "--quiet" as
         # it ('--duration: "--quiet" is not a finite number'); a flag takes only True or False.
