@@ -126,6 +126,22 @@ TEST(Averaged, ThePhasesNearAZeroCrossingCarryTheirChoppersMean) {
   }
 }
 
+// The 17HS19 on a TMC2209 (STEP/DIR, interpolation off, no heat) behind 1000 kg·m² of armature,
+// so that its rotor barely moves, undamped, at 1 µs; `extra` configs added.
+ModelPtr HeldRotor(const std::string& fidelity, const std::string& extra = "") {
+  std::string xml =
+      BenchRotorModel(Config("motor", "17hs19_2004s1") + Config("driver", "tmc2209") +
+                          Config("input", "steps") + Config("fidelity", fidelity) +
+                          Config("heat", "off") + Config("interpolate", "off") + extra,
+                      0.0, 1e-6);
+  const std::string armature = "armature=\"8.2e-6\"";
+  xml.replace(xml.find(armature), armature.size(), "armature=\"1e3\"");
+  std::string error;
+  ModelPtr m = LoadModel(xml, &error);
+  EXPECT_TRUE(m) << error;
+  return m;
+}
+
 // A phase whose back-EMF pushes its current up (the drop R·i* + e below 0: here one microstep
 // past a full step, the rotor turned backward at 2.5 rad/s behind a 1000 kg·m² flywheel, so that
 // e·sgn(i*) outweighs R·i* = 0.34 V) is held above its target: SpreadCycle can pull it down only in
@@ -137,15 +153,8 @@ TEST(Averaged, APhaseTheBackEmfPushesUpCarriesItsChoppersMean) {
   for (int f = 0; f < 2; ++f) {
     const char* fidelity = f == 0 ? "averaged" : "switching";
     SCOPED_TRACE(fidelity);
-    std::string xml = BenchRotorModel(
-        Config("motor", "17hs19_2004s1") + Config("driver", "tmc2209") + Config("input", "steps") +
-            Config("fidelity", fidelity) + Config("heat", "off") + Config("interpolate", "off"),
-        0.0, 1e-6);
-    const std::string armature = "armature=\"8.2e-6\"";
-    xml.replace(xml.find(armature), armature.size(), "armature=\"1e3\"");
-    std::string error;
-    const ModelPtr m = LoadModel(xml, &error);
-    ASSERT_TRUE(m) << error;
+    const ModelPtr m = HeldRotor(fidelity);
+    ASSERT_TRUE(m);
     // One microstep past the full step, the rotor turning backward at 2.5 rad/s.
     const PhaseMean b = MeanPhaseB(m, 1, -2.5, 0.003, 0.006);
     mean_b[f] = b.mean;
@@ -174,16 +183,8 @@ TEST(Averaged, AfterAStepDownThePhaseComesDownThroughItsChoppersBand) {
   for (int f = 0; f < 2; ++f) {
     const char* fidelity = f == 0 ? "averaged" : "switching";
     SCOPED_TRACE(fidelity);
-    std::string xml = BenchRotorModel(Config("motor", "17hs19_2004s1") +
-                                          Config("driver", "tmc2209") + Config("input", "steps") +
-                                          Config("fidelity", fidelity) + Config("heat", "off") +
-                                          Config("interpolate", "off") + Config("microsteps", "64"),
-                                      0.0, 1e-6);
-    const std::string armature = "armature=\"8.2e-6\"";
-    xml.replace(xml.find(armature), armature.size(), "armature=\"1e3\"");
-    std::string error;
-    const ModelPtr m = LoadModel(xml, &error);
-    ASSERT_TRUE(m) << error;
+    const ModelPtr m = HeldRotor(fidelity, Config("microsteps", "64"));
+    ASSERT_TRUE(m);
     const DataPtr d(mj_makeData(m.get()));
     int n[2] = {0, 0};
     while (d->time < kStep + kWindows[1][1]) {

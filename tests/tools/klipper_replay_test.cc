@@ -105,29 +105,19 @@ TEST(KlipperReplay, AMapMustFitTheModel) {
   o.progress = false;
   o.klipper = kPrint + "mzv.map";
   o.ctrl = {{"stepper_a", "constant(0rpm)"}};
-  std::ostringstream progress;
-  EXPECT_THROW(
-      {
-        try {
-          tools::Run(o, progress);
-        } catch (const std::invalid_argument& e) {
-          EXPECT_THAT(e.what(), ::testing::HasSubstr("both drive 'stepper_a'"));
-          throw;
-        }
-      },
-      std::invalid_argument);
+  auto refused = [](const RunOptions& options) {
+    std::ostringstream progress;
+    try {
+      tools::Run(options, progress);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("(ran)");
+  };
+  EXPECT_THAT(refused(o), ::testing::HasSubstr("both drive 'stepper_a'"));
   o.model = MJSTEPPER_SOURCE_DIR "/models/bedslinger.xml";
   o.ctrl.clear();
-  EXPECT_THROW(
-      {
-        try {
-          tools::Run(o, progress);
-        } catch (const std::invalid_argument& e) {
-          EXPECT_THAT(e.what(), ::testing::HasSubstr("has no stepper actuator 'stepper_a'"));
-          throw;
-        }
-      },
-      std::invalid_argument);
+  EXPECT_THAT(refused(o), ::testing::HasSubstr("has no stepper actuator 'stepper_a'"));
 }
 
 }  // namespace
