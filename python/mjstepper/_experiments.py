@@ -11,6 +11,7 @@ engine computes with the very double given.
 import dataclasses
 import numbers
 import os
+import re
 
 import numpy as np
 
@@ -129,6 +130,38 @@ _TEXT_OPTIONS = {"ctrl", "klipper", "log", "keyframe", "start", "stepper", "mesh
 _FLAGS = {"allow_coarse", "no_overlay", "quiet"}
 
 
+def _keywords():
+    """{"--option": its Python spelling} from the command's own option list (_engine.options)."""
+    return {option: f"{python}=True" if flag else python
+            for _, option, python, flag in _engine.options() if option.startswith("--")}
+
+
+_OPTION = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
+
+
+def in_python_words(message):
+    """A message of the command's parser or engine in a Python user's words: each option named as
+    its keyword ("--allow-coarse" → "allow_coarse=True", "--log-every" → "log_every")."""
+    keywords = _keywords()
+    return _OPTION.sub(lambda m: keywords.get(m.group(0), m.group(0)), message)
+
+
+def compute(args, keep_traces=False):
+    """_engine.compute, its ValueErrors in a Python user's words (in_python_words)."""
+    try:
+        return _engine.compute(args, keep_traces)
+    except ValueError as e:
+        raise ValueError(in_python_words(str(e))) from None
+
+
+def check(args):
+    """_engine.check, its ValueErrors in a Python user's words (in_python_words)."""
+    try:
+        _engine.check(args)
+    except ValueError as e:
+        raise ValueError(in_python_words(str(e))) from None
+
+
 def command_line(subcommand, positional, options):
     """The command line of `subcommand` with `positional` arguments and `options`
     ({python_name: value}): None leaves an option out, a flag (_FLAGS) is given for True and left
@@ -164,10 +197,6 @@ def command_line(subcommand, positional, options):
     return args
 
 
-def _quiet(progress):
-    return not progress
-
-
 def _items(value):
     """A repeatable option's values: a lone str (or number) is one value, not its characters."""
     if value is None:
@@ -180,7 +209,7 @@ def _items(value):
 def run(model, duration, *, ctrl=None, klipper=None, log=None, log_every=None, set=(), load=None,
         mass=None, keyframe=None, start=None, allow_coarse=False, render=None, frames=None,
         camera=None, size=None, fps=None, playback=None, overlay=(), no_overlay=False, plot=None,
-        accel_log=None, accelerometer=None, traces=True, progress=False):
+        accel_log=None, accelerometer=None, traces=True, quiet=True):
     """`mjstepper run`: steps `model` for `duration` s with a command profile per stepper
     (`ctrl={"shaft": "ramp(0rpm,200rpm,0.8s)"}`) or a real print's step stream
     (`klipper="models/prints/square20/mzv.map"`: Klipper's MCU step commands onto the steppers
@@ -195,8 +224,8 @@ def run(model, duration, *, ctrl=None, klipper=None, log=None, log_every=None, s
         mass=mass, keyframe=keyframe, start=start, allow_coarse=allow_coarse, render=render, frames=frames,
         camera=camera, size=size, fps=fps, playback=playback, overlay=_items(overlay),
         no_overlay=no_overlay, plot=plot, accel_log=accel_log, accelerometer=accelerometer,
-        quiet=_quiet(progress)))
-    r = _engine.compute(args, traces)
+        quiet=quiet))
+    r = compute(args, traces)
     return RunResult(steppers=Table(r["steppers"]),
                      traces={name: Table(t) for name, t in r["traces"].items()},
                      steps=r["steps"], sim_time=r["sim_time"], wall_time=r["wall_time"],
@@ -204,54 +233,54 @@ def run(model, duration, *, ctrl=None, klipper=None, log=None, log_every=None, s
 
 
 def sweep_args(model, speeds, *, actuator=None, settle=None, measure=None, threads=None, set=(),
-               out=None, progress=False):
+               out=None, allow_coarse=False, quiet=True):
     return command_line("sweep", [model], dict(
         speeds=speeds_text(speeds), actuator=actuator, settle=settle, measure=measure,
-        threads=threads, set=_items(set), out=out, quiet=_quiet(progress)))
+        threads=threads, set=_items(set), out=out, allow_coarse=allow_coarse, quiet=quiet))
 
 
 def sweep(model, speeds, **options):
     """`mjstepper sweep`: one constant-speed run per speed (a str such as "10:200:2.5rpm", or
     numbers in rad/s) on all cores; a Table of speed, rms_error, peak_to_peak_error (rad/s),
     dominant_frequency (Hz), lost_steps. `out=PREFIX` also writes PREFIX.csv and PREFIX.png.
-    Options: actuator, settle, measure, threads, set, out, progress."""
-    return Table(_engine.compute(sweep_args(model, speeds, **options), False)["table"])
+    Options: actuator, settle, measure, threads, set, out, allow_coarse, quiet."""
+    return Table(compute(sweep_args(model, speeds, **options), False)["table"])
 
 
 def map_args(model, speeds, vary, *, actuator=None, settle=None, measure=None, threads=None,
-             set=(), out=None, progress=False):
+             set=(), out=None, allow_coarse=False, quiet=True):
     parameter, values = vary
     text = f"{_text('vary', parameter)}=" + ",".join(_number("vary", v) for v in values)
     return command_line("map", [model], dict(
         speeds=speeds_text(speeds), vary=text, actuator=actuator, settle=settle, measure=measure,
-        threads=threads, set=_items(set), out=out, quiet=_quiet(progress)))
+        threads=threads, set=_items(set), out=out, allow_coarse=allow_coarse, quiet=quiet))
 
 
 def map(model, speeds, vary, **options):
     """`mjstepper map`: the sweep over speeds × values of one load parameter,
     vary=("stiffness:JOINT", [values]) (N·m/rad or N/m) or ("mass:BODY", [kg]); a Table of value
     and the sweep's columns, values outermost. Options as `sweep`."""
-    r = _engine.compute(map_args(model, speeds, vary, **options), False)
+    r = compute(map_args(model, speeds, vary, **options), False)
     return Table(r["table"], parameter=r["parameter"])
 
 
 def pullout_args(model, speeds, *, actuator=None, rate=None, max_torque=None, threads=None,
-                 set=(), out=None, progress=False):
+                 set=(), out=None, allow_coarse=False, quiet=True):
     return command_line("pullout", [model], dict(
         speeds=speeds_text(speeds), actuator=actuator, rate=rate, max_torque=max_torque,
-        threads=threads, set=_items(set), out=out, quiet=_quiet(progress)))
+        threads=threads, set=_items(set), out=out, allow_coarse=allow_coarse, quiet=quiet))
 
 
 def pullout(model, speeds, **options):
     """`mjstepper pullout`: the pull-out torque curve; a Table of speed (rad/s), torque (N·m,
     rotor side), slipped_unloaded, held_max. Options: actuator, rate (N·m/s), max_torque (N·m),
-    threads, set, out, progress."""
-    return Table(_engine.compute(pullout_args(model, speeds, **options), False)["table"])
+    threads, set, out, allow_coarse, quiet."""
+    return Table(compute(pullout_args(model, speeds, **options), False)["table"])
 
 
 def identify(model, speeds="10,30rpm", *, actuator=None, dyno=None, orders=None, set=()):
     """`mjstepper identify`: Tsui's bench; the detent harmonics, Fs and B (Identified)."""
-    r = _engine.compute(command_line("identify", [model], dict(
+    r = compute(command_line("identify", [model], dict(
         speeds=speeds_text(speeds), actuator=actuator, dyno=dyno,
         orders=None if orders is None else _items(orders), set=_items(set))), False)
     return Identified(harmonics=Table(r["harmonics"]), static_friction=r["static_friction"],
@@ -261,15 +290,15 @@ def identify(model, speeds="10,30rpm", *, actuator=None, dyno=None, orders=None,
 
 def resonance_test(model, axis, out, *, min_freq=None, max_freq=None, accel_per_hz=None,
                    hz_per_sec=None, accelerometer=None, accel_rate=None, accel_range=None,
-                   accel_noise=None, seed=None, set=(), progress=False):
+                   accel_noise=None, seed=None, set=(), quiet=True):
     """`mjstepper resonance-test`: Klipper's TEST_RESONANCES on a simulated printer; writes
     OUT_raw.csv (Klipper's raw accelerometer format), OUT_psd.csv and OUT.png, returns a
     ResonanceTest. accel_per_hz in mm/s² per Hz, accel_noise in µg/√Hz, as the command."""
-    r = _engine.compute(command_line("resonance-test", [model], dict(
+    r = compute(command_line("resonance-test", [model], dict(
         axis=axis, out=out, min_freq=min_freq, max_freq=max_freq, accel_per_hz=accel_per_hz,
         hz_per_sec=hz_per_sec, accelerometer=accelerometer, accel_rate=accel_rate,
         accel_range=accel_range, accel_noise=accel_noise, seed=seed, set=_items(set),
-        quiet=_quiet(progress))), False)
+        quiet=quiet)), False)
     return ResonanceTest(psd=Table(r["psd"]), fits=Table(r["fits"]),
                          peak_frequency=r["peak_frequency"], recommended=r["recommended"],
                          samples=r["samples"])
@@ -285,30 +314,30 @@ def _joint_values(name, values, unit):
     return ",".join(repr(float(_number(name, v))) for v in values) + unit
 
 
-def attach(robot, steppers, out, *, meshdir=None):
+def attach(robot, stepper, out, *, meshdir=None):
     """`mjstepper attach`: puts a stepper on each joint of `robot` (an MJCF or URDF path) named in
-    `steppers`, {joint: {"motor": "17hs24_2104s", "driver": "tmc5160", "gear": 6.4, ...}} (gear
+    `stepper` (the command's repeatable --stepper), {joint: {"motor": "17hs24_2104s", "driver": "tmc5160", "gear": 6.4, ...}} (gear
     sets the actuator's gear; every other key is a plugin attribute, plugin/README.md), and writes
     the MJCF `out` with the motors' rotor inertia as armature, the timestep the rule recommends and
     a keyframe "start". `meshdir`: the robot's mesh folder, for a URDF's package:// URIs. Returns
     {"out": path, "timestep": s, "joints": [...]}; errors name the joint and the fix."""
     items = []
-    for joint, spec in steppers.items():
-        joint = _text("steppers", joint)
+    for joint, spec in stepper.items():
+        joint = _text("stepper", joint)
         pairs = []
         for key, value in spec.items():
-            key = _text(f"steppers[{joint!r}]", key)
+            key = _text(f"stepper[{joint!r}]", key)
             if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
                 value = repr(float(value))
-            pairs.append(f"{key}={_text(f'steppers[{joint!r}][{key!r}]', value)}")
+            pairs.append(f"{key}={_text(f'stepper[{joint!r}][{key!r}]', value)}")
         items.append(f"{joint}:" + ",".join(pairs))
     args = command_line("attach", [robot], dict(stepper=items, out=out, meshdir=meshdir))
-    return dict(_engine.compute(args, False))
+    return dict(compute(args, False))
 
 
 def size(model, move, *, speed=None, accel=None, dwell=None, cycles=None, pullout_points=None,
          out=None, threads=None, set=(), mass=None, keyframe=None, start=None, allow_coarse=False,
-         log=None, render=None, camera=None, size=None, fps=None, playback=None, progress=False):
+         log=None, render=None, camera=None, size=None, fps=None, playback=None, quiet=True):
     """`mjstepper size`: does each joint's motor, drive and bus carry `move`, {actuator:
     waypoints} ("30,0deg", or numbers in rad), at `speed` and `accel` ({actuator: "90deg/s"} /
     {actuator: "600deg/s²"}, or numbers in rad/s, rad/s² — numbers are a hinge's: give a slide's
@@ -324,8 +353,8 @@ def size(model, move, *, speed=None, accel=None, dwell=None, cycles=None, pullou
         accel=joints("accel", accel, "rad/s²"), dwell=dwell, cycles=cycles,
         pullout_points=pullout_points, out=out, threads=threads, set=_items(set), mass=mass,
         keyframe=keyframe, start=start, allow_coarse=allow_coarse, log=log, render=render,
-        camera=camera, size=size, fps=fps, playback=playback, quiet=_quiet(progress)))
-    r = _engine.compute(args, False)
+        camera=camera, size=size, fps=fps, playback=playback, quiet=quiet))
+    r = compute(args, False)
     return Sizing(table=Table(r["table"]),
                   demand={name: Table(t) for name, t in r["demand"].items()},
                   pullout={name: Table(t) for name, t in r["pullout"].items()},

@@ -59,7 +59,7 @@ def _task(function, model, text, speed, options):
     return [(name, table.units[name], table[name].tolist()) for name in table.dtype.names]
 
 
-def _run(function, model, runs, options, address, progress, what):
+def _run(function, model, runs, options, address, quiet, what):
     """Runs function(model, speed, threads=1, **options) for each (speed, extra options) in
     `runs` as Ray tasks; the rows in order."""
     ray = _import_ray(f"mjstepper.distributed.{what}")
@@ -71,7 +71,7 @@ def _run(function, model, runs, options, address, progress, what):
         with open(model, encoding="utf-8") as f:
             text = ray.put(f.read())
         pending = [remote.remote(function, model, text, speed,
-                                 {**options, **extra, "threads": 1, "progress": False})
+                                 {**options, **extra, "threads": 1, "quiet": True})
                    for speed, extra in runs]
         order = {ref: i for i, ref in enumerate(pending)}
         results = [None] * len(pending)
@@ -80,7 +80,7 @@ def _run(function, model, runs, options, address, progress, what):
             done, waiting = ray.wait(waiting, num_returns=1)
             for ref in done:
                 results[order[ref]] = ray.get(ref)
-            if progress:
+            if not quiet:
                 print(f"\r  ray {what}: {len(pending) - len(waiting)}/{len(pending)} runs",
                       end="" if waiting else "\n", file=sys.stderr, flush=True)
         return results
@@ -102,29 +102,30 @@ def _write(args, table):
                                  for name in table.dtype.names})
 
 
-def sweep(model, speeds, *, address=None, out=None, progress=True, **options):
+def sweep(model, speeds, *, address=None, out=None, quiet=False, **options):
     """mjstepper.sweep on Ray, one task per speed; the same Table and, with out=PREFIX, the same
     PREFIX.csv and PREFIX.png. `address`: a Ray cluster's (default: a local Ray on every core).
-    Options as mjstepper.sweep (actuator, settle, measure, set)."""
+    Options as mjstepper.sweep (actuator, settle, measure, set, allow_coarse); quiet: no line of
+    the tasks' progress (default False: shown)."""
     args = _experiments.sweep_args(model, speeds, out=out, **options)
-    _engine.check(args)
+    _experiments.check(args)
     runs = [(s, {}) for s in _engine.parse_speeds(_experiments.speeds_text(speeds))]
-    table = _concatenate(_run("sweep", model, runs, options, address, progress, "sweep"))
+    table = _concatenate(_run("sweep", model, runs, options, address, quiet, "sweep"))
     if out is not None:
         _write(args, table)
     return table
 
 
-def map(model, speeds, vary, *, address=None, out=None, progress=True, **options):
+def map(model, speeds, vary, *, address=None, out=None, quiet=False, **options):
     """mjstepper.map on Ray, one task per (value, speed); the same Table and files."""
     parameter, values = vary
     values = list(values)  # read twice below: a generator would be empty the second time
     vary = (parameter, values)
     args = _experiments.map_args(model, speeds, vary, out=out, **options)
-    _engine.check(args)
+    _experiments.check(args)
     speed_list = _engine.parse_speeds(_experiments.speeds_text(speeds))
     runs = [(s, {"vary": (parameter, [v])}) for v in values for s in speed_list]
-    table = _concatenate(_run("map", model, runs, options, address, progress, "map"),
+    table = _concatenate(_run("map", model, runs, options, address, quiet, "map"),
                          parameter=parameter)
     if out is not None:
         _write(args, table)

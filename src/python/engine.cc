@@ -389,6 +389,15 @@ NB_MODULE(_engine, m) {
   m.def(
       "check", [](const std::vector<std::string>& args) { const Parsed parsed(args); },
       nb::arg("args"), "Parses and checks a command line; raises ValueError naming what is wrong.");
+  m.def(
+      "options",
+      [] {
+        std::vector<std::tuple<std::string, std::string, std::string, bool>> rows;
+        for (const OptionDoc& d : OptionDocs()) rows.emplace_back(d.command, d.option, d.python, d.flag);
+        return rows;
+      },
+      "Every subcommand's options as the command's parser declares them: (command, option, "
+      "Python keyword, is a flag) each (README, \"Options of every front-end\").");
   m.def("write_outputs", &WriteOutputsFrom, nb::arg("args"), nb::arg("columns"),
         "Writes a sweep, map or pull-out result given as {column: values} to the files the "
         "command line names (its --out), as the command writes them.");

@@ -2,10 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 #include <tuple>
@@ -87,6 +89,11 @@ CLI::Option* AddBounded(CLI::App* app, const char* name, T& value, const std::st
   return app->add_option(fmt::format("--{}", name), value, help)->check(InRange(name));
 }
 
+const char* kAllowCoarseHelp =
+    "run although the timestep is too coarse for a mode a stepper takes part in (ω·h > 0.2 with "
+    "the detent's worst-case stiffness; info lists the modes), warning once; a mode without a "
+    "stepper only warns";
+
 const char* kSetHelp =
     "ACTUATOR.KEY=VALUE: change a stepper's <config> for this run, e.g. shaft.damping=all or "
     "shaft.drive=servo (repeatable)";
@@ -106,7 +113,8 @@ CommandLine::CommandLine(bool out_optional)
   run_->add_option("--ctrl", ctrl_,
                    "ACTUATOR=PROFILE, e.g. 'shaft=ramp(0rpm,200rpm,0.8s)'; profiles: constant(X), "
                    "ramp(A,B,T), trapezoid(V,Ta,Tc,Td), targets(A0,A1@T1,…) (angle targets for "
-                   "a drive's own profile); units rpm, rad/s, rad/s², rad, deg, s (on "
+                   "a drive's own profile), shaped(PROFILE, mzv 40Hz) (through an input shaper: zv, mzv, "
+                   "zvd, ei, 2hump_ei, 3hump_ei); units rpm, rad/s, rad/s², rad, deg, s (on "
                    "a slide or a tendon also m, mm, m/s, mm/s, m/s², mm/s²: θ = gear·x); speeds "
                    "within ±1e4 rad/s, angles ±1e7 rad, times 1e6 s; or steps(FILE), a "
                    "STEP/DIR list (one step time in s per line, optionally +1/-1) for input=steps");
@@ -143,10 +151,7 @@ CommandLine::CommandLine(bool out_optional)
                    "start from the model's keyframe of this name (the drives start at rest on "
                    "their rotors there)");
   AddStart(run_, &c.run.start);
-  run_->add_flag("--allow-coarse", c.run.allow_coarse,
-                 "run although the timestep is too coarse for a mode a stepper takes part in "
-                 "(ω·h > 0.2 with the detent's worst-case stiffness; info lists the modes); a "
-                 "mode without a stepper only warns");
+  run_->add_flag("--allow-coarse", c.run.allow_coarse, kAllowCoarseHelp);
   run_->add_option("--mass", masses_,
                    "BODY=KG: a body's mass for this run, its inertia scaled with it, e.g. "
                    "payload=2 in models/arm3.xml (repeatable; KG in [1e-9, 1e6])");
@@ -183,6 +188,7 @@ CommandLine::CommandLine(bool out_optional)
     }
     AddBounded(sub, "threads", *threads, "worker threads (default: one per core)");
     sub->add_option("--set", sets_, kSetHelp);
+    sub->add_flag("--allow-coarse", allow_coarse_, kAllowCoarseHelp);
     sub->add_flag("--quiet", quiet_, "no progress line");
   }
   map_->add_option("--vary", vary_,
@@ -208,6 +214,7 @@ CommandLine::CommandLine(bool out_optional)
       ->default_val(c.speeds_text);
   AddBounded(identify_, "orders", c.identify.orders, "harmonic orders to fit, each once")
       ->default_val(std::vector<int>{4, 2, 1});
+  identify_->add_option("--set", sets_, kSetHelp);
 
   resonance_ = app_.add_subcommand(
       "resonance-test",
@@ -280,8 +287,7 @@ CommandLine::CommandLine(bool out_optional)
     sub->add_option("--mass", masses_, "BODY=KG: a body's mass, e.g. payload=0.5 (repeatable)");
     sub->add_option("--keyframe", run.keyframe, "start (and end) each cycle at this keyframe");
     AddStart(sub, &run.start);
-    sub->add_flag("--allow-coarse", run.allow_coarse,
-                  "run although the timestep is too coarse for a mode a stepper takes part in");
+    sub->add_flag("--allow-coarse", run.allow_coarse, kAllowCoarseHelp);
     sub->add_option("--log", run.log, "CSV log of the cycle (every signal)");
     sub->add_option("--render", run.render.video, "MP4 video of the cycle (ffmpeg)");
     sub->add_option("--camera", run.render.renderer.camera, "named camera of the model");
@@ -333,6 +339,68 @@ CommandLine::CommandLine(bool out_optional)
       "into a README between its <!-- BEGIN x --> / <!-- END x --> markers");
   tables_->add_option("--write", c.tables_file, "README to update in place")
       ->check(CLI::ExistingFile);
+}
+
+std::vector<OptionDoc> OptionDocs() {
+  const CommandLine line(/*out_optional=*/false);
+  std::vector<OptionDoc> docs;
+  for (const CLI::App* sub : const_cast<CommandLine&>(line).app().get_subcommands({})) {
+    for (const CLI::Option* o : sub->get_options()) {
+      if (o->get_lnames().empty() && !o->get_positional()) continue;  // -h
+      const bool positional = o->get_positional() && o->get_lnames().empty();
+      const std::string name = positional ? o->get_name() : o->get_lnames().front();
+      if (name == "help") continue;
+      std::string python = name;
+      std::replace(python.begin(), python.end(), '-', '_');
+      docs.push_back({.command = sub->get_name(),
+                      .option = positional ? name : "--" + name,
+                      .python = python,
+                      .flag = o->get_expected_max() == 0,
+                      .positional = positional,
+                      .required = o->get_required(),
+                      .help = o->get_description()});
+    }
+  }
+  return docs;
+}
+
+std::string OptionListMarkdown() {
+  // The subcommands with a Python function (python/mjstepper/_experiments.py), by its name.
+  const std::map<std::string, std::string> python = {
+      {"run", "run"},         {"sweep", "sweep"},       {"map", "map"},
+      {"pullout", "pullout"}, {"identify", "identify"}, {"resonance-test", "resonance_test"},
+      {"size", "size"},       {"attach", "attach"}};
+  std::vector<std::string> order;
+  std::map<std::string, std::vector<const OptionDoc*>> by_name;
+  const std::vector<OptionDoc> docs = OptionDocs();
+  for (const OptionDoc& d : docs) {
+    if (by_name[d.option].empty()) order.push_back(d.option);
+    by_name[d.option].push_back(&d);
+  }
+  std::string out =
+      "| option | Python | commands | what (the first command's words; `--help` has each "
+      "command's) |\n|---|---|---|---|\n";
+  for (const std::string& name : order) {
+    const std::vector<const OptionDoc*>& uses = by_name[name];
+    std::string commands;
+    bool in_python = false;
+    for (const OptionDoc* d : uses) {
+      commands += fmt::format("{}{}", commands.empty() ? "" : ", ", d->command);
+      in_python |= python.contains(d->command);
+    }
+    const OptionDoc& d = *uses.front();
+    std::string keyword = "—";
+    if (in_python) {
+      keyword = d.flag ? fmt::format("`{}=True`", d.python) : fmt::format("`{}=`", d.python);
+      if (d.positional) keyword = fmt::format("`{}` (first argument)", d.python);
+    }
+    std::string help = d.help;
+    for (size_t p = help.find('|'); p != std::string::npos; p = help.find('|', p + 2))
+      help.replace(p, 1, "\\|");
+    out += fmt::format("| `{}` | {} | {} | {} |\n", d.positional ? d.python : name, keyword,
+                       commands, help);
+  }
+  return out;
 }
 
 const Command& CommandLine::Parse(int argc, const char* const* argv) {
@@ -398,6 +466,7 @@ void CommandLine::Check() {
     c.kind = *sweep_ ? CommandKind::kSweep : CommandKind::kMap;
     so.speeds = ParseSpeedList(c.speeds_text);
     so.progress = !quiet_;
+    so.allow_coarse = allow_coarse_;
     so.overrides = overrides;
     if (*map_) {
       const size_t eq = vary_.find('=');
@@ -431,6 +500,7 @@ void CommandLine::Check() {
     c.kind = CommandKind::kPullOut;
     c.pullout.speeds = ParseSpeedList(c.speeds_text);
     c.pullout.progress = !quiet_;
+    c.pullout.allow_coarse = allow_coarse_;
     c.pullout.overrides = overrides;
     if (c.pullout.max_torque / c.pullout.rate > 1000) {
       throw std::invalid_argument(fmt::format(

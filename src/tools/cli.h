@@ -60,6 +60,25 @@ struct Command {
 /// parent folders. (Parse only reads the file system.)
 void CheckOutputs(const Command& command);
 
+/// One option of one subcommand, as the parser declares it: the one list of the front-ends'
+/// options (README, "Options of every front-end"; the Python package's keywords are checked
+/// against it).
+struct OptionDoc {
+  std::string command;  ///< subcommand: run, sweep, …
+  std::string option;   ///< "--duration", or a positional argument's name ("model")
+  std::string python;   ///< the Python keyword: the name with '_' for '-' ("log_every")
+  bool flag = false;    ///< takes no value (Python: True or False)
+  bool positional = false;
+  bool required = false;
+  std::string help;  ///< what it does, as --help says
+};
+
+/// Every subcommand's options (no --help), in the parser's order.
+std::vector<OptionDoc> OptionDocs();
+/// OptionDocs as a Markdown table, one row per option name: its subcommands, its Python keyword
+/// and what it does (`mjstepper tables`).
+std::string OptionListMarkdown();
+
 class CommandLine {
  public:
   /// `out_optional`: sweep, map and pull-out compute without --out (the Python package returns
@@ -94,7 +113,7 @@ class CommandLine {
   double accel_per_hz_ = 75;  // mm/s² per Hz, as Klipper states it
   int accel_range_ = 16;      // g
   double accel_noise_ = 290;  // µg/√Hz on X and Y
-  bool quiet_ = false, no_overlay_ = false;
+  bool quiet_ = false, no_overlay_ = false, allow_coarse_ = false;  // flags of several
 };
 
 }  // namespace mjstepper::tools

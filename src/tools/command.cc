@@ -203,7 +203,8 @@ int WriteTables(const std::string& path) {
   const std::vector<std::pair<std::string, std::string>> sections = {
       {"presets", plugin::PresetTableMarkdown()}, {"drives", plugin::DriveListMarkdown()},
       {"drivers", DriverTableMarkdown()},         {"attributes", plugin::AttributeTableMarkdown()},
-      {"signals", SignalTableMarkdown()},         {"options", OptionRangeTableMarkdown()}};
+      {"signals", SignalTableMarkdown()},         {"options", OptionRangeTableMarkdown()},
+      {"front-end", OptionListMarkdown()}};
   if (path.empty()) {
     for (const auto& [name, table] : sections) fmt::print("{}\n", table);
     return 0;

@@ -207,12 +207,8 @@ RunResult Run(const RunOptions& given, std::ostream& progress) {
   // The one timestep rule, on the modes where the run starts (qpos0 or the keyframe): a stepper
   // mode too fast for the step refuses the run (every failing mode named, and the largest step
   // that passes them all); a mode no stepper takes part in only warns (the model's own springs).
-  if (const TimestepVerdict verdict = CheckTimestep(sm, key); !verdict.failed.empty()) {
-    const std::string message = verdict.Message(options.model);
-    if (verdict.refuse() && !options.allow_coarse) {
-      throw std::invalid_argument(message + ", or pass --allow-coarse");
-    }
-    fmt::print(progress, "warning: {}\n", message);
+  if (options.judge_timestep) {
+    ApplyTimestepRule(sm, key, options.model, options.allow_coarse, progress);
   }
   if (const std::string note = SubstepNote(sm); !note.empty())
     fmt::print(progress, "note: {}: {}\n", options.model, note);

@@ -44,6 +44,7 @@ struct RunOptions {
   std::vector<ConfigOverride> overrides;  ///< e.g. shaft.damping=all
   std::map<std::string, double> loads;    ///< load actuator name → τl, N·m (SetLoadTorque)
   bool allow_coarse = false;              ///< run although a stepper mode's ω·h > 0.2
+  bool judge_timestep = true;             ///< false when the caller judged the model already (size)
   std::string keyframe;                   ///< start from this keyframe; empty: qpos0
   StartMode start = StartMode::kSettled;  ///< settle under gravity first, or start aligned
   std::map<std::string, double> masses;   ///< body name → mass, kg (SetBodyMass)

@@ -245,18 +245,22 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
         "--move j2=30,-10deg");
   }
 
-  // 1. The model as the user runs it: its steppers, gears, transmissions and start pose.
+  // 1. The model as the user runs it: its steppers, gears, transmissions and start pose; its
+  // timestep judged once, here, before any bench or cycle runs.
+  const ToolJudgesTimestep judged;
   const StepperModel user = LoadStepperModel(o.run.model, o.run.overrides);
   const mjModel* m0 = user.model.get();
   DataPtr data0(mj_makeData(m0));
+  int key = -1;
   if (!o.run.keyframe.empty()) {
-    const int key = mj_name2id(m0, mjOBJ_KEY, o.run.keyframe.c_str());
+    key = mj_name2id(m0, mjOBJ_KEY, o.run.keyframe.c_str());
     if (key < 0) {
       throw std::invalid_argument(fmt::format("--keyframe {}: {} has no keyframe of that name",
                                               o.run.keyframe, o.run.model));
     }
     mj_resetDataKeyframe(m0, data0.get(), key);
   }
+  ApplyTimestepRule(user, key, o.run.model, o.run.allow_coarse, progress);
   mj_forward(m0, data0.get());
 
   const size_t n = user.steppers.size();
@@ -411,6 +415,7 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
                    fmt::format("{:g} s · {:g} /s / {:g} = {:g} frames", run.duration,
                                run.render.fps, run.render.playback, frames));
   }
+  run.judge_timestep = false;  // judged in 1.
   result.run = Run(run, progress);
 
   // 4. Each joint: its demand, its motor's curve on the bench, the margin, the heat.
@@ -469,6 +474,7 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
         s.config.profile.kind != ProfileKind::kNone ? s.config.profile.max_accel : po.acceleration,
         0.25 * po.max_torque / 1.5 / j.bench_inertia);
     po.threads = o.threads;
+    po.judge_timestep = false;  // the sized model's step, judged on the model by Size
     po.progress = o.run.progress;
     if (o.run.progress) fmt::print(progress, "size: pull-out of '{}' on its bench\n", s.name);
     j.pullout = PullOut(po, progress);

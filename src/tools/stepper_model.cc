@@ -1,6 +1,7 @@
 #include "stepper_model.h"
 
 #include <fmt/format.h>
+#include <fmt/ostream.h>
 #include <fmt/ranges.h>
 
 #include <Eigen/Dense>
@@ -287,6 +288,17 @@ std::vector<plugin::ModalStepper> ModalSteppers(const StepperModel& sm) {
 
 TimestepVerdict CheckTimestep(const StepperModel& sm, int key) {
   return plugin::JudgeModelTimestep(sm.model.get(), ModalSteppers(sm), key);
+}
+
+void ApplyTimestepRule(const StepperModel& sm, int key, const std::string& subject,
+                       bool allow_coarse, std::ostream& out) {
+  const TimestepVerdict verdict = CheckTimestep(sm, key);
+  if (verdict.failed.empty()) return;
+  const std::string message = verdict.Message(subject);
+  if (verdict.refuse() && !allow_coarse) {
+    throw std::invalid_argument(message + ", or pass --allow-coarse");
+  }
+  fmt::print(out, "warning: {}\n", message);
 }
 
 double SwitchingCycle(const DriveConfig& c) {

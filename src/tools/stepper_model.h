@@ -6,6 +6,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include <iosfwd>
 #include <memory>
 #include <optional>
 #include <string>
@@ -124,6 +125,14 @@ std::vector<plugin::ModalStepper> ModalSteppers(const StepperModel& sm);
 /// The one timestep rule (core/timestep_rule.h) on the model's modes at qpos0 or keyframe `key`,
 /// as the plugin's load warning judges it.
 TimestepVerdict CheckTimestep(const StepperModel& sm, int key = -1);
+
+/// The rule as every experiment applies it (run, sweep, map, pullout, size; README, "The
+/// command"): a stepper mode too fast for the step refuses the experiment with
+/// std::invalid_argument naming every failing mode, the largest step that passes them all and
+/// --allow-coarse; with `allow_coarse`, and for a mode without a stepper, the same text is
+/// printed to `out` once as a warning. `subject` names the model in the message.
+void ApplyTimestepRule(const StepperModel& sm, int key, const std::string& subject,
+                       bool allow_coarse, std::ostream& out);
 
 /// A switching chopper's fastest steady cycle, Hz (averaged_bridge.h's FastestCycle: its own rules
 /// on a linear cycle, a tenth to all of its peak, drops within ±Vbus/2); 0 for any other drive and

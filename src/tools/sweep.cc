@@ -215,12 +215,16 @@ void ParallelFor(size_t n, int threads, bool show_progress, const char* what,
 template <class Point, class Options, class Run, class Check>
 std::vector<Point> OverSpeeds(const Options& o, const char* what, std::ostream& progress, Run run,
                               Check check) {
+  const ToolJudgesTimestep judged;  // judged below, each warning once
   StepperModel sm;
+  bool judge = true;
   if constexpr (requires { o.model_text; }) {
     sm = LoadStepperModel(o.model, o.overrides, o.model_text);
+    judge = o.judge_timestep;
   } else {
     sm = LoadStepperModel(o.model, o.overrides);
   }
+  if (judge) ApplyTimestepRule(sm, -1, o.model, o.allow_coarse, progress);
   check(sm.model.get());
   const StepperActuator& target = FindTarget(sm, o.actuator, o.model);
   std::vector<Point> points(o.speeds.size());
@@ -321,7 +325,11 @@ std::vector<MapPoint> Map(const MapOptions& o, std::ostream& progress) {
   const SweepOptions& s = o.sweep;
   if (o.values.empty()) throw std::invalid_argument("--vary: no value");
   CheckSpeeds(s.speeds, static_cast<double>(s.speeds.size() * o.values.size()));
+  const ToolJudgesTimestep judged;  // judged below, each warning once
   const StepperModel sm = LoadStepperModel(s.model, s.overrides);
+  // On the model as given: a map's stiffer values can only be judged per value, and its
+  // parameter is what the map varies (the resonance it looks for).
+  ApplyTimestepRule(sm, -1, s.model, s.allow_coarse, progress);
   CheckSweepTiming(s, sm.model.get());
   const StepperActuator& target = FindTarget(sm, s.actuator, s.model);
   std::vector<ModelPtr> models;

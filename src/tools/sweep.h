@@ -24,6 +24,7 @@ struct SweepOptions {
   double measure = 0.5;                   ///< s measured
   int threads = 0;                        ///< 0: one per core
   std::vector<ConfigOverride> overrides;  ///< e.g. shaft.damping=all
+  bool allow_coarse = false;  ///< run although a stepper mode's ω·h > 0.2 (ApplyTimestepRule)
   bool progress = true;
 };
 
@@ -48,6 +49,9 @@ struct PullOutOptions {
   double max_torque = 5;                  ///< N·m: a run that holds this much ends there
   int threads = 0;                        ///< 0: one per core
   std::vector<ConfigOverride> overrides;  ///< e.g. shaft.bus_voltage=24
+  bool allow_coarse = false;  ///< run although a stepper mode's ω·h > 0.2 (ApplyTimestepRule)
+  /// false for `size`'s bench, whose timestep is the sized model's, judged there on the model
+  bool judge_timestep = true;
   bool progress = true;
 };
 

@@ -227,7 +227,7 @@ class OneEngine(unittest.TestCase):
         ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
         try:
             on_ray = mjstepper.distributed.sweep(RIGID, table.speed, settle=0.2, measure=0.2,
-                                                 out=base + "_ray", progress=False)
+                                                 out=base + "_ray", quiet=True)
         finally:
             ray.shutdown()
         self.assertEqual(read(base + "_ray.csv"), read(base + "_cli.csv"))
@@ -249,7 +249,7 @@ class OneEngine(unittest.TestCase):
         ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
         try:
             on_ray = mjstepper.distributed.map(COUPLING, "40,85rpm", vary, settle=0.2,
-                                               measure=0.2, out=base + "_ray", progress=False)
+                                               measure=0.2, out=base + "_ray", quiet=True)
         finally:
             ray.shutdown()
         self.assertEqual(read(base + "_ray.csv"), read(base + "_cli.csv"))
@@ -284,7 +284,7 @@ class OneEngine(unittest.TestCase):
         self.assertEqual(sizing.pullout["shaft"].torque.tolist(),
                          csv_column(base + "_cli_shaft_pullout.csv", "pull_out_torque[N·m]"))
         self.assertAlmostEqual(sizing.cycle_time, 0.6, places=9)
-        with self.assertRaisesRegex(ValueError, "--move shaft=20mm"):
+        with self.assertRaisesRegex(ValueError, "(?<!-)move shaft=20mm"):
             mjstepper.size(rotor, {"shaft": "20mm"})
 
     def test_run(self):
@@ -370,7 +370,7 @@ class OneEngine(unittest.TestCase):
             lost[start] = float(abs(result.steppers.lost_steps).sum())
         self.assertEqual(lost["settled"], 0)
         self.assertGreater(lost["aligned"], 0)
-        with self.assertRaisesRegex(ValueError, "--start"):
+        with self.assertRaisesRegex(ValueError, "(?<!-)start"):
             mjstepper.run(arm, 0.01, start="upright")
 
     def test_identify(self):
@@ -407,28 +407,72 @@ class Arguments(unittest.TestCase):
 
     def test_numbers_name_the_option_and_its_range(self):
         sweep = mjstepper.sweep
-        self.assertRejects(ValueError, ["--settle", "-1", "[0, 60] s"], sweep, RIGID, "40rpm",
+        self.assertRejects(ValueError, ["settle", "-1", "[0, 60] s"], sweep, RIGID, "40rpm",
                            settle=-1)
-        self.assertRejects(ValueError, ["--measure", "61"], sweep, RIGID, "40rpm", measure=61)
-        self.assertRejects(ValueError, ["--measure", "nan"], sweep, RIGID, "40rpm",
+        self.assertRejects(ValueError, ["measure", "61"], sweep, RIGID, "40rpm", measure=61)
+        self.assertRejects(ValueError, ["measure", "nan"], sweep, RIGID, "40rpm",
                            measure=math.nan)
         self.assertRejects(TypeError, ["measure = '0.5'"], sweep, RIGID, "40rpm", measure="0.5")
         self.assertRejects(TypeError, ["speeds = True"], sweep, RIGID, [True])
         self.assertRejects(ValueError, ["speeds: no speed"], sweep, RIGID, [])
-        self.assertRejects(ValueError, ["--speeds", "20000"], sweep, RIGID, [5.0, 2e4])
-        self.assertRejects(ValueError, ["--speeds", "inf"], sweep, RIGID, [math.inf])
-        self.assertRejects(ValueError, ["--vary", "-100"], mjstepper.map, COUPLING, "40rpm",
+        self.assertRejects(ValueError, ["speeds", "20000"], sweep, RIGID, [5.0, 2e4])
+        self.assertRejects(ValueError, ["speeds", "inf"], sweep, RIGID, [math.inf])
+        self.assertRejects(ValueError, ["vary", "-100"], mjstepper.map, COUPLING, "40rpm",
                            ("stiffness:coupling", [-100]))
-        self.assertRejects(ValueError, ["--vary", "damping:coupling"], mjstepper.map, COUPLING,
+        self.assertRejects(ValueError, ["vary", "damping:coupling"], mjstepper.map, COUPLING,
                            "40rpm", ("damping:coupling", [1]))
-        self.assertRejects(ValueError, ["--duration: 1000000000.0 is not in [1e-06, 1e+06] s"],
+        self.assertRejects(ValueError, ["duration: 1000000000.0 is not in [1e-06, 1e+06] s"],
                            mjstepper.run, RIGID, 1e9)
-        self.assertRejects(ValueError, ["--mass", "payload=-2"], mjstepper.run, RIGID, 0.1,
+        self.assertRejects(ValueError, ["mass", "payload=-2"], mjstepper.run, RIGID, 0.1,
                            mass={"payload": -2})
         self.assertRejects(ValueError, ["/no/such/model.xml"], sweep, "/no/such/model.xml",
                            "40rpm")
         self.assertRejects(ValueError, ["'nothing'", "not a stepper"], sweep, RIGID, "40rpm",
                            actuator="nothing")
+
+    def test_messages_name_python_keywords_not_command_flags(self):
+        # Issue 32, item 1: a Python user was told to "pass --allow-coarse", a flag of the command.
+        arm6 = os.path.join(SOURCE, "models", "arm6.xml")
+        with self.assertRaises(ValueError) as ctx:
+            mjstepper.size(arm6, {"j2": "30,0deg"}, cycles=1)
+        self.assertIn("pass allow_coarse=True", str(ctx.exception))
+        self.assertNotIn("--", str(ctx.exception))
+        self.assertRejects(ValueError, ["log_every", "[1, 1e+09]"], mjstepper.run, RIGID, 0.1,
+                           log_every=0)
+
+    def test_sweep_pullout_and_map_apply_the_timestep_rule(self):
+        # Issue 32, item 5: a step too coarse for the stepper's mode is refused by every experiment
+        # (it ran silently in sweep, map and pullout), and allow_coarse=True runs it anyway.
+        with open(RIGID) as f:
+            coarse = f.read().replace('timestep="5e-5"', 'timestep="1e-3"')
+        path = os.path.join(os.getcwd(), "tsui_1ms.xml")
+        with open(path, "w") as f:
+            f.write(coarse)
+        for function, args in ((mjstepper.sweep, (path, "40rpm")),
+                               (mjstepper.pullout, (path, "100rpm")),
+                               (mjstepper.map, (path, "40rpm", ("mass:rotor", [0.5])))):
+            self.assertRejects(ValueError, ["too coarse", "allow_coarse=True"], function, *args)
+        self.assertEqual(len(mjstepper.sweep(path, "40rpm", measure=0.2, allow_coarse=True)), 1)
+
+    def test_python_keywords_are_the_commands_options(self):
+        # Issue 32, item 1: every option has the same name in the command and in Python (the
+        # command's parser lists them: mjstepper._engine.options), and each experiment's keywords
+        # are exactly its subcommand's options, plus what only Python has (a run's traces).
+        import inspect
+        from mjstepper import _engine
+        functions = {"run": (mjstepper.run, {"traces"}),
+                     "sweep": (mjstepper._experiments.sweep_args, set()),
+                     "map": (mjstepper._experiments.map_args, set()),
+                     "pullout": (mjstepper._experiments.pullout_args, set()),
+                     "identify": (mjstepper.identify, set()),
+                     "resonance-test": (mjstepper.resonance_test, set()),
+                     "size": (mjstepper.size, set()),
+                     "attach": (mjstepper.attach, set())}
+        for command, (function, python_only) in functions.items():
+            options = {python for c, _, python, _ in _engine.options() if c == command}
+            keywords = set(inspect.signature(function).parameters) - python_only
+            self.assertEqual(keywords, options, command)
+        mjstepper.run(RIGID, 0.01, quiet=True)  # issue 32: quiet=True was a TypeError
 
     def test_measure_holds_at_least_100_timesteps(self):
         with open(RIGID) as f:
@@ -436,7 +480,7 @@ class Arguments(unittest.TestCase):
         path = os.path.join(os.getcwd(), "tsui_coarse.xml")
         with open(path, "w") as f:
             f.write(coarse)
-        self.assertRejects(ValueError, ["--measure 0.01", "at least 100 timesteps"],
+        self.assertRejects(ValueError, ["measure 0.01", "at least 100 timesteps"],
                            mjstepper.sweep, path, "40rpm", measure=0.01)
 
     def test_out_replaces_only_a_regular_file(self):
@@ -540,6 +584,31 @@ class HostileArguments(unittest.TestCase):
             documented.append(line.split("`")[1])
         self.assertEqual(mjstepper.ATTRIBUTES, tuple(documented))
         self.assertEqual(mjstepper.ATTRIBUTE_UNITS["hold_current"], "A")
+
+
+class DocsPython(unittest.TestCase):
+    """Issue 32, item 1: every Python block of the README and docs/ runs as written, in a scratch
+    folder holding the clone's models/ (as from the clone's root), with the installed package."""
+
+    def test_every_python_block_runs(self):
+        import glob
+        import re
+        fence = re.compile(r"^```python[^\n]*\n(.*?)^```", re.S | re.M)
+        docs = ["README.md"] + sorted(glob.glob("docs/**/*.md", root_dir=SOURCE, recursive=True))
+        folder = tempfile.mkdtemp(prefix="mjstepper_docs_python_")
+        os.symlink(os.path.join(SOURCE, "models"), os.path.join(folder, "models"))
+        ran = 0
+        for doc in docs:
+            with open(os.path.join(SOURCE, doc), encoding="utf-8") as f:
+                text = f.read()
+            for m in fence.finditer(text):
+                line = text.count("\n", 0, m.start()) + 1
+                with self.subTest(block=f"{doc}:{line}"):
+                    proc = subprocess.run([sys.executable, "-c", m.group(1)], cwd=folder,
+                                          capture_output=True, text=True, timeout=600)
+                    self.assertEqual(proc.returncode, 0, f"{doc}:{line}\n{proc.stderr[-3000:]}")
+                ran += 1
+        self.assertGreaterEqual(ran, 4)  # README's three (one with Ray), docs/ray.md's
 
 
 if __name__ == "__main__":

@@ -363,19 +363,23 @@ TEST(Security, BoundsThatNeedTheModelFailBeforeAnyStep) {
 
 namespace {
 
-// The README's option-range table is the one generated from the table the parser uses: an edited
-// bound fails here until `mjstepper tables --write README.md` regenerates it.
+// The README's option-range table and its list of every front-end's options (issue 32, item 1)
+// are the ones generated from the tables the parser uses: an edited bound or option fails here
+// until `mjstepper tables --write README.md` regenerates them.
 TEST(Security, ReadmeCarriesTheOptionRangeTable) {
   std::ifstream in(MJSTEPPER_SOURCE_DIR "/README.md");
   std::stringstream text;
   text << in.rdbuf();
   const std::string readme = text.str();
-  const std::string begin = "<!-- BEGIN options -->\n", end = "<!-- END options -->";
-  const size_t b = readme.find(begin), e = readme.find(end);
-  ASSERT_NE(b, std::string::npos);
-  ASSERT_NE(e, std::string::npos);
-  EXPECT_EQ(readme.substr(b + begin.size(), e - b - begin.size()),
-            mjstepper::tools::OptionRangeTableMarkdown());
+  for (const auto& [name, table] :
+       {std::pair{std::string("options"), mjstepper::tools::OptionRangeTableMarkdown()},
+        std::pair{std::string("front-end"), mjstepper::tools::OptionListMarkdown()}}) {
+    const std::string begin = "<!-- BEGIN " + name + " -->\n", end = "<!-- END " + name + " -->";
+    const size_t b = readme.find(begin), e = readme.find(end);
+    ASSERT_NE(b, std::string::npos) << name;
+    ASSERT_NE(e, std::string::npos) << name;
+    EXPECT_EQ(readme.substr(b + begin.size(), e - b - begin.size()), table) << name;
+  }
 }
 
 }  // namespace

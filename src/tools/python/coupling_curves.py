@@ -236,7 +236,7 @@ def sweep(h, coupling, tmp):
     with open(model, "w", encoding="utf-8") as f:
         f.write(model_text(h, ring=False))
     prefix = os.path.join(tmp, "sweep")
-    ok = simulate(["sweep", model] + SWEEP_ARGS
+    ok = simulate(["sweep", model, "--allow-coarse"] + SWEEP_ARGS
                   + ["--set", f"shaft.coupling={coupling}", "--out", prefix, "--threads", "1",
                      "--quiet"], tmp, f"sweep h={h:.4g} {coupling}")
     if not ok:

@@ -123,9 +123,9 @@ BENCH_17HS19 = """<mujoco model="bench17">
 def pullout(xml, actuator, speed, h, coupling, fidelity, tmp, tag):
     model = write_model(xml, h, tmp, tag)
     prefix = os.path.join(tmp, tag)
-    cli(["pullout", model, "--speeds", speed, "--quiet", "--threads", "1", "--out", prefix,
-         "--set", f"{actuator}.coupling={coupling}", "--set", f"{actuator}.fidelity={fidelity}"],
-        tmp)
+    cli(["pullout", model, "--speeds", speed, "--quiet", "--allow-coarse", "--threads", "1",
+         "--out", prefix, "--set", f"{actuator}.coupling={coupling}",
+         "--set", f"{actuator}.fidelity={fidelity}"], tmp)
     (torque,) = columns(prefix + ".csv", ["pull_out_torque"])
     return torque[0]
 

@@ -811,9 +811,8 @@ Every number below was measured by the command that regenerates this page:
     bash scripts/reproduce_kim2016.sh
 
 (it builds, then runs `src/tools/python/reproduce_kim2016.py`, which runs the
-{sum(len(r) for r in runs.values()) + (extra is not None)} simulations two at a time; {sim_wall:.0f} s for
-the simulations and their logs, {wall:.0f} s in all after the build, on the 2-core machine of
-BENCHMARKS.md). Logs go to `logs/reproduction/kim2016_*.csv`, figures to `renders/kim2016/`.
+{sum(len(r) for r in runs.values()) + (extra is not None)} simulations two at a time and prints its wall
+time). Logs go to `logs/reproduction/kim2016_*.csv`, figures to `renders/kim2016/`.
 
 ## Setup
 

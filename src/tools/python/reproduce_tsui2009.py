@@ -234,8 +234,7 @@ this page:
 
     bash scripts/reproduce_tsui2009.sh
 
-(it builds, then runs `src/tools/python/reproduce_tsui2009.py`; {n['wall']:.0f} s on the 2-core machine of
-BENCHMARKS.md). Logs go to `logs/reproduction/`, figures to `renders/tsui2009/`.
+(it builds, then runs `src/tools/python/reproduce_tsui2009.py`, which prints its wall time). Logs go to `logs/reproduction/`, figures to `renders/tsui2009/`.
 
 ## Figs. 7-11: the 0 → 200 r/min ramp
 

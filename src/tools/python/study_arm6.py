@@ -348,8 +348,6 @@ def write_report(sized, fine, infos, slips, seconds):
         "the smaller motors' cycle at 1 ms, real time, each joint's drive, speeds, load angle and "
         "lost steps in the side panel (pages of steppers).",
         "",
-        f"Generated in {seconds:.0f} s.",
-        "",
     ]
     path = os.path.join(ROOT, "docs", "studies", "arm6.md")
     with open(path + ".tmp", "w") as out:

@@ -94,7 +94,7 @@ def write_report(sized, no_ihold, slips, elapsed):
         "# The real PAROL6: sizing, slip payloads, heat with and without IHOLD",
         "",
         "Made by `src/tools/python/study_parol6.py` (`bash scripts/study.sh`, the main job) from "
-        f"`mjstepper size` and `mjstepper run` on `models/parol6.xml` in {elapsed:.0f} s. The "
+        f"`mjstepper size` and `mjstepper run` on `models/parol6.xml`. The "
         "model is PAROL6 as its builders own it: the URDF's kinematics, masses and inertias, the "
         "firmware's gear ratios, the BOM's motors (17HS24-2104S on J1-J2, 17HS16-2004S1 on "
         "J3-J5, 17HS08-1004S on J6), TMC5160s in StealthChop at 32 microsteps with the firmware's "
