@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/stl/string.h>
+#include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
 
 #include <cmath>
@@ -393,7 +394,8 @@ NB_MODULE(_engine, m) {
       "options",
       [] {
         std::vector<std::tuple<std::string, std::string, std::string, bool>> rows;
-        for (const OptionDoc& d : OptionDocs()) rows.emplace_back(d.command, d.option, d.python, d.flag);
+        for (const OptionDoc& d : OptionDocs())
+          rows.emplace_back(d.command, d.option, d.python, d.flag);
         return rows;
       },
       "Every subcommand's options as the command's parser declares them: (command, option, "

@@ -25,10 +25,12 @@ const char* const kPlotTitles[3] = {"velocity error (r/min)", "phase currents (A
                                     "load angle (el. rad)"};
 
 TableText StepperTableTemplate() {
-  // Line 1: the stepper's name (fitted to the label column) and its drive (fitted to the values').
-  return {{"damping", "damping", "cmd", "speed", "load", "lost"},
-          {"-8888.8 r/min", "h 2 4 6", "-8888.8 r/min", "-8888.8 r/min", "+8.888 el. rad",
-           "+88888 steps"}};
+  // The stepper's name and its drive each on a line of their own, in the values' column, the
+  // panel's widest (issue 32, item 4: a name cut to the label column read "steppe~"); each is
+  // fitted to it only when longer than the whole column.
+  return {{"stepper", "drive", "damping", "cmd", "speed", "load", "lost"},
+          {"-8888.8 r/min", "-8888.8 r/min", "h 2 4 6", "-8888.8 r/min", "-8888.8 r/min",
+           "+8.888 el. rad", "+88888 steps"}};
 }
 
 // (One page says "all N steppers", narrower.)
@@ -86,15 +88,17 @@ OverlayLayout LayOutOverlay(int width, int height, int steppers, const FontMetri
   const int inner_width = std::max(0, panel_width - 2 * kGap);
   const int ch = font.char_height;
 
-  // Header (page): one line, at the panel's top; the time at the scene's top left.
+  // The time at the scene's top left, the page (header) beside it: the panel's whole height is
+  // the steppers' (issue 32, item 4: their tables gained a line for the stepper's full name).
   const PixelRect header = TableSize(HeaderTemplate(), font);
-  layout.header = {inner_left, std::max(0, height - kGap - header.height), inner_width,
-                   std::min(header.height, std::max(0, height - kGap))};
   const PixelRect time = TableSize(TimeTemplate(), font);
   layout.time = {0, std::max(0, height - time.height), std::min(time.width, layout.scene.width),
                  std::min(time.height, height)};
-  layout.legible = header.width <= inner_width && header.height + 2 * kGap <= height &&
-                   time.width <= layout.scene.width;
+  const int header_left = std::min(layout.time.right() + kGap, layout.scene.right());
+  layout.header = {header_left, std::max(0, height - header.height),
+                   std::min(header.width, layout.scene.right() - header_left),
+                   std::min(header.height, height)};
+  layout.legible = time.width + kGap + header.width <= layout.scene.width;
 
   // A stepper's block: its table, then three plots, each kMinPlotLines lines high at least and as
   // wide as its title and y tick labels need (mjr_figure centres the title and clips it, pads
@@ -112,7 +116,7 @@ OverlayLayout LayOutOverlay(int width, int height, int steppers, const FontMetri
 
   // Stepper blocks fill the panel below the header in columns and rows: the fewest pages, and for
   // those the fewest columns (the widest plots).
-  const int area_top = layout.header.bottom - kGap, area_bottom = kGap;
+  const int area_top = height - kGap, area_bottom = kGap;
   const int area_height = std::max(0, area_top - area_bottom);
   const int max_rows = std::max(1, (area_height + kGap) / (min_block_height + kGap));
   const int max_columns = std::max(1, (inner_width + kGap) / (min_block_width + kGap));

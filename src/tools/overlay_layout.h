@@ -1,7 +1,8 @@
 // Where a rendered frame's overlays go: a side panel on the right, at most a third of the frame
-// wide, holding a header (time, page) and, per stepper, a text table and three plots (velocity
-// error, phase currents, load angle). When every stepper's block does not fit legibly, the steppers
-// are split into pages that the video cycles through, the header saying which page is shown. Pure
+// wide, holding per stepper a text table (its full name, drive, speeds, load angle, lost steps) and
+// three plots (velocity error, phase currents, load angle); the time and the page at the scene's
+// top left. When every stepper's block does not fit legibly, the steppers are split into pages
+// that the video cycles through, the header saying which page is shown. Pure
 // arithmetic on pixel sizes: no MuJoCo, no GL (the renderer supplies the font's metrics).
 #ifndef MJSTEPPER_TOOLS_OVERLAY_LAYOUT_H_
 #define MJSTEPPER_TOOLS_OVERLAY_LAYOUT_H_
@@ -62,9 +63,9 @@ struct StepperSlot {
 
 struct OverlayLayout {
   PixelRect frame;   ///< the whole frame
-  PixelRect panel;   ///< the side panel's background; all but `time` lie inside it
+  PixelRect panel;   ///< the side panel's background; all but `time` and `header` lie inside it
   PixelRect scene;   ///< the rest of the frame, where the 3D scene is drawn
-  PixelRect header;  ///< the page shown (mjr_overlay, top left), at the panel's top
+  PixelRect header;  ///< the page shown (mjr_overlay), at the scene's top, right of `time`
   PixelRect time;    ///< the simulated time, at the scene's top left
   int label_width = 0, value_width = 0;  ///< pixels each table column may use (for FitText)
   int steppers_per_page = 0;

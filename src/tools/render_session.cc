@@ -25,14 +25,14 @@ TableText StepperTable(const StepperActuator& stepper, const StepperSample& last
   if (const HarmonicCompensation* comp = Damping(stepper.config.controller)) {
     for (const DetentHarmonic& h : comp->harmonics) damping += fmt::format(" {}", h.order);
   }
-  return {
-      {FitText(stepper.name, layout.label_width, font), "damping", "cmd", "speed", "load", "lost"},
-      {FitText(ControllerName(stepper.config.controller), layout.value_width, font),
-       FitText(damping.empty() ? "none" : "h" + damping, layout.value_width, font),
-       fmt::format("{:.1f} r/min", RadPerSecToRpm(last.omega_cmd)),
-       fmt::format("{:.1f} r/min", RadPerSecToRpm(last.omega_cmd + last.velocity_error)),
-       fmt::format("{:+.3f} el. rad", last.load_angle),
-       fmt::format("{:+.0f} steps", last.lost_steps + 0.0)}};
+  return {{"stepper", "drive", "damping", "cmd", "speed", "load", "lost"},
+          {FitText(stepper.name, layout.value_width, font),
+           FitText(ControllerName(stepper.config.controller), layout.value_width, font),
+           FitText(damping.empty() ? "none" : "h" + damping, layout.value_width, font),
+           fmt::format("{:.1f} r/min", RadPerSecToRpm(last.omega_cmd)),
+           fmt::format("{:.1f} r/min", RadPerSecToRpm(last.omega_cmd + last.velocity_error)),
+           fmt::format("{:+.3f} el. rad", last.load_angle),
+           fmt::format("{:+.0f} steps", last.lost_steps + 0.0)}};
 }
 
 RenderSession::RenderSession(const mjModel* m, const std::vector<StepperActuator>& steppers,

@@ -13,15 +13,15 @@ The few blocks that cannot run here are listed in NOT_RUN by their first line, e
 reason; they are still checked with `bash -n` and every script or file they name must exist, and a
 listed line that no longer appears in any doc fails the test (the list stays true).
 """
-import filecmp
 import glob
 import os
 import re
 import shutil
 import subprocess
 import sys
-import tempfile
 import time
+
+from scratch_tree import changed_files, exit_with, scratch_copy
 
 SOURCE = os.path.abspath(sys.argv[1])
 DOCS = (["README.md", "BENCHMARKS.md", "plugin/README.md", "models/README.md",
@@ -77,20 +77,6 @@ def blocks():
     return found
 
 
-def scratch_copy():
-    """A scratch copy of the tracked tree, with build/ and .venv/ linked in."""
-    root = tempfile.mkdtemp(prefix="mjstepper_docs_")
-    tracked = subprocess.run(["git", "-C", SOURCE, "ls-files", "-z"], check=True,
-                             capture_output=True).stdout.decode().split("\0")
-    tracked = [t for t in tracked if t and os.path.isfile(os.path.join(SOURCE, t))]
-    for path in tracked:
-        os.makedirs(os.path.join(root, os.path.dirname(path)), exist_ok=True)
-        shutil.copy2(os.path.join(SOURCE, path), os.path.join(root, path))
-    for linked in ("build", ".venv"):
-        os.symlink(os.path.join(SOURCE, linked), os.path.join(root, linked))
-    return root, tracked
-
-
 def main():
     failures = []
     found = blocks()
@@ -98,7 +84,7 @@ def main():
     for line in NOT_RUN:
         if line not in firsts:
             failures.append(f"NOT_RUN lists {line!r}, which no doc holds any more")
-    root, tracked = scratch_copy()
+    root, tracked = scratch_copy(SOURCE)
     try:
         for doc, line, text in found:
             first = text.splitlines()[0]
@@ -126,16 +112,12 @@ def main():
             if proc.returncode != 0:
                 failures.append(f"{where}: exit {proc.returncode}\n{text}\n{proc.stdout[-2000:]}"
                                 f"{proc.stderr[-2000:]}")
-        changed = [t for t in tracked
-                   if not filecmp.cmp(os.path.join(SOURCE, t), os.path.join(root, t),
-                                      shallow=False)]
+        changed = changed_files(SOURCE, root, tracked)
         if changed:
             failures.append(f"the docs' commands changed tracked files: {changed}")
     finally:
         shutil.rmtree(root, ignore_errors=True)
-    for failure in failures:
-        print(f"FAIL {failure}", file=sys.stderr)
-    sys.exit(1 if failures else 0)
+    exit_with(failures)
 
 
 if __name__ == "__main__":

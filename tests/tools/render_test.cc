@@ -253,7 +253,8 @@ void ExpectLegibleLayout(int w, int h) {
   EXPECT_TRUE(Inside(layout.scene, layout.frame));
   EXPECT_FALSE(Overlaps(layout.panel, layout.scene));
   EXPECT_TRUE(Inside(layout.time, layout.scene));
-  EXPECT_TRUE(Inside(layout.header, layout.panel));
+  EXPECT_TRUE(Inside(layout.header, layout.scene));
+  EXPECT_FALSE(Overlaps(layout.header, layout.time));
   const PixelRect header_text = TableSize(HeaderTemplate(), font);
   EXPECT_LE(header_text.width, layout.header.width);
   EXPECT_LE(header_text.height, layout.header.height);
@@ -268,7 +269,7 @@ void ExpectLegibleLayout(int w, int h) {
       .omega_cmd = -900, .velocity_error = -30, .load_angle = -3.14159, .lost_steps = -12345};
   for (const std::vector<StepperSlot>& page : layout.pages) {
     ASSERT_LE(static_cast<int>(page.size()), layout.steppers_per_page);
-    std::vector<PixelRect> rects = {layout.header};
+    std::vector<PixelRect> rects;
     for (const StepperSlot& slot : page) {
       ASSERT_GE(slot.stepper, 0);
       ASSERT_LT(slot.stepper, 4);
@@ -297,6 +298,14 @@ void ExpectLegibleLayout(int w, int h) {
     }
   }
   EXPECT_THAT(seen, ::testing::Each(1));
+  // Issue 32, item 4: the printers' and the study's names are shown whole (the label column cut
+  // them to "steppe~" and "undam~").
+  for (const char* name : {"stepper_a", "stepper_b", "undamped", "shoulder"}) {
+    StepperActuator named = sm.steppers[0];
+    named.name = name;
+    const TableText table = StepperTable(named, extreme, layout, font);
+    EXPECT_THAT(table.values, ::testing::Contains(std::string(name))) << w << "x" << h;
+  }
 }
 
 TEST(RenderLayout, FourSteppersAt640x480) { ExpectLegibleLayout(640, 480); }
