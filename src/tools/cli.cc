@@ -110,14 +110,15 @@ CommandLine::CommandLine(bool out_optional)
   run_ = app_.add_subcommand("run", "step a model with command profiles, log to CSV");
   run_->add_option("model", c.run.model, "MJCF model")->required()->check(CLI::ExistingFile);
   AddBounded(run_, "duration", c.run.duration, "simulated time, s")->required();
-  run_->add_option("--ctrl", ctrl_,
-                   "ACTUATOR=PROFILE, e.g. 'shaft=ramp(0rpm,200rpm,0.8s)'; profiles: constant(X), "
-                   "ramp(A,B,T), trapezoid(V,Ta,Tc,Td), targets(A0,A1@T1,…) (angle targets for "
-                   "a drive's own profile), shaped(PROFILE, mzv 40Hz) (through an input shaper: zv, mzv, "
-                   "zvd, ei, 2hump_ei, 3hump_ei); units rpm, rad/s, rad/s², rad, deg, s (on "
-                   "a slide or a tendon also m, mm, m/s, mm/s, m/s², mm/s²: θ = gear·x); speeds "
-                   "within ±1e4 rad/s, angles ±1e7 rad, times 1e6 s; or steps(FILE), a "
-                   "STEP/DIR list (one step time in s per line, optionally +1/-1) for input=steps");
+  run_->add_option(
+      "--ctrl", ctrl_,
+      "ACTUATOR=PROFILE, e.g. 'shaft=ramp(0rpm,200rpm,0.8s)'; profiles: constant(X), "
+      "ramp(A,B,T), trapezoid(V,Ta,Tc,Td), targets(A0,A1@T1,…) (angle targets for "
+      "a drive's own profile), shaped(PROFILE, mzv 40Hz) (through an input shaper: zv, mzv, "
+      "zvd, ei, 2hump_ei, 3hump_ei); units rpm, rad/s, rad/s², rad, deg, s (on "
+      "a slide or a tendon also m, mm, m/s, mm/s, m/s², mm/s²: θ = gear·x); speeds "
+      "within ±1e4 rad/s, angles ±1e7 rad, times 1e6 s; or steps(FILE), a "
+      "STEP/DIR list (one step time in s per line, optionally +1/-1) for input=steps");
   run_->add_option("--klipper", c.run.klipper,
                    "MAP: a real print's step stream, Klipper's MCU commands from its batch mode "
                    "(parsedump.py output) onto the actuators the map names, each as a steps(FILE) "
@@ -342,9 +343,9 @@ CommandLine::CommandLine(bool out_optional)
 }
 
 std::vector<OptionDoc> OptionDocs() {
-  const CommandLine line(/*out_optional=*/false);
+  CommandLine line(/*out_optional=*/false);
   std::vector<OptionDoc> docs;
-  for (const CLI::App* sub : const_cast<CommandLine&>(line).app().get_subcommands({})) {
+  for (const CLI::App* sub : line.app().get_subcommands({})) {
     for (const CLI::Option* o : sub->get_options()) {
       if (o->get_lnames().empty() && !o->get_positional()) continue;  // -h
       const bool positional = o->get_positional() && o->get_lnames().empty();
