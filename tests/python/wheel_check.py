@@ -394,6 +394,17 @@ class OneEngine(unittest.TestCase):
         self.assertIn(r.recommended, r.fits.shaper.tolist())
 
 
+def rigid_at_timestep(timestep, name):
+    """models/tsui_rigid.xml at another timestep (s, as MJCF text), written to `name` in the
+    working folder; its path."""
+    with open(RIGID) as f:
+        text = f.read().replace('timestep="5e-5"', f'timestep="{timestep}"')
+    path = os.path.join(os.getcwd(), name)
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
 class Arguments(unittest.TestCase):
     """Every argument goes through the command's own parser and checks (issue 16): a bad one is
     refused before any work, naming the option, its value and its bound."""
@@ -443,11 +454,7 @@ class Arguments(unittest.TestCase):
     def test_sweep_pullout_and_map_apply_the_timestep_rule(self):
         # Issue 32, item 5: a step too coarse for the stepper's mode is refused by every experiment
         # (it ran silently in sweep, map and pullout), and allow_coarse=True runs it anyway.
-        with open(RIGID) as f:
-            coarse = f.read().replace('timestep="5e-5"', 'timestep="1e-3"')
-        path = os.path.join(os.getcwd(), "tsui_1ms.xml")
-        with open(path, "w") as f:
-            f.write(coarse)
+        path = rigid_at_timestep("1e-3", "tsui_1ms.xml")
         for function, args in ((mjstepper.sweep, (path, "40rpm")),
                                (mjstepper.pullout, (path, "100rpm")),
                                (mjstepper.map, (path, "40rpm", ("mass:rotor", [0.5])))):
@@ -475,11 +482,7 @@ class Arguments(unittest.TestCase):
         mjstepper.run(RIGID, 0.01, quiet=True)  # issue 32: quiet=True was a TypeError
 
     def test_measure_holds_at_least_100_timesteps(self):
-        with open(RIGID) as f:
-            coarse = f.read().replace('timestep="5e-5"', 'timestep="2e-4"')
-        path = os.path.join(os.getcwd(), "tsui_coarse.xml")
-        with open(path, "w") as f:
-            f.write(coarse)
+        path = rigid_at_timestep("2e-4", "tsui_coarse.xml")
         self.assertRejects(ValueError, ["measure 0.01", "at least 100 timesteps"],
                            mjstepper.sweep, path, "40rpm", measure=0.01)
 
