@@ -177,6 +177,8 @@ int Info(const std::string& path) {
                verdict.Message("the model", "\n    "));
   }
   if (const std::string note = SubstepNote(sm); !note.empty()) fmt::print("  note: {}\n", note);
+  if (const std::string warning = IntegratorWarning(m); !warning.empty())
+    fmt::print("  warning: {}\n", warning);
   // A move's ringing after it, with STEP/DIR input: a finer step than the rule's (drive.h).
   const bool steps = std::any_of(sm.steppers.begin(), sm.steppers.end(),
                                  [](const auto& s) { return s.config.input == InputMode::kSteps; });

@@ -139,6 +139,10 @@ void ApplyTimestepRule(const StepperModel& sm, int key, const std::string& subje
 /// for fidelity = averaged.
 double SwitchingCycle(const DriveConfig& c);
 
+/// "" or a warning that the model integrates with MuJoCo's RK4, with the measured cost in fidelity
+/// (plugin/README.md, "Integrators"): issue 32, item 8.
+std::string IntegratorWarning(const mjModel* m);
+
 /// "" or a note that the model's timestep is above kSubsteppedMeasuredStep (core/substep.h) while
 /// a stepper is sub-stepped: a step at which the coupling's fidelity is not measured.
 std::string SubstepNote(const StepperModel& sm);

@@ -57,10 +57,16 @@ CONDITIONS = {
     "b": ("(b) 5 kHz control", [f"shaft.isr_period={BENCH_PERIOD:g}"]),
     "c": ("(c) 1 MHz + detent", [f"shaft.detent={DETENT}"]),
 }
-# One more run: FOC case 2 at 5 kHz with the backward-difference reference derivative, to see
-# whether its instability comes from the analytic derivative (it is not one of the nine).
-EXTRA = ("b-num", "FOC case 2", "(b) 5 kHz, numeric i̇d",
-         [f"shaft.isr_period={BENCH_PERIOD:g}", "shaft.foc_derivative=numeric"])
+# Runs beyond the nine, each (key, controller, label, --set): the FOCs with the backward-difference
+# reference derivative (`foc_derivative=numeric`, one interrupt period), as a digital controller
+# forms i̇d (the paper does not say how its simulation did), under (a), where C2 is judged under
+# both derivatives; and FOC case 2 at 5 kHz with it, to see whether its instability comes from the
+# analytic derivative.
+NUMERIC = "shaft.foc_derivative=numeric"
+EXTRAS = [("a-num", "FOC case 1", "(a) ideal drive, 1 MHz, numeric i̇d", [NUMERIC]),
+          ("a-num", "FOC case 2", "(a) ideal drive, 1 MHz, numeric i̇d", [NUMERIC]),
+          ("b-num", "FOC case 2", "(b) 5 kHz, numeric i̇d",
+           [f"shaft.isr_period={BENCH_PERIOD:g}", NUMERIC])]
 SIGNALS = ["theta", "theta_cmd", "omega", "load_angle", "current_a", "current_b", "current_ref_a",
            "current_ref_b", "voltage_a", "voltage_b", "torque_detent", "lost_steps"]
 HUGE = 1e6
@@ -157,7 +163,21 @@ def metrics(r, p):
     m["print_gap"] = float(np.nanmax(np.abs(raw - e1)))
     m["print_quantum"] = 0.5 * 10.0 ** (math.floor(math.log10(max(np.nanmax(np.abs(r["theta"])), 1e-300))) - 9)
     v = np.maximum(np.abs(r["voltage_a"]), np.abs(r["voltage_b"]))
-    di2 = (r["current_a"] - r["current_ref_a"]) ** 2 + (r["current_b"] - r["current_ref_b"]) ** 2
+    # The current error of one tick: the logged reference is the one the last interrupt computed,
+    # up to one period T before the logged current (interrupts at multiples of T, the one at a log
+    # time belonging to the next step), so the current is taken back to that interrupt along the
+    # winding's own solution with the voltage held since (S-3: L·i̇ = v − R·i − e, back-EMF
+    # e = j·Km·ω·e^(j·Nr·θ), S-2). Pairing the logged values directly (`lagged`) adds about T·i̇.
+    period = p["isr_sets"].get(r["key"], p["isr"])
+    since = t - period * (np.ceil(t / period - 1e-9) - 1)  # s, back to the last interrupt
+    grow = np.exp(p["R"] * since / p["L"])
+    x = p["Nr"] * r["theta"]
+    emf = (-p["Km"] * r["omega"] * np.sin(x), p["Km"] * r["omega"] * np.cos(x))
+    at_tick = [(i - (u - e) / p["R"]) * grow + (u - e) / p["R"]
+               for i, u, e in ((r["current_a"], r["voltage_a"], emf[0]),
+                               (r["current_b"], r["voltage_b"], emf[1]))]
+    di2 = (at_tick[0] - r["current_ref_a"]) ** 2 + (at_tick[1] - r["current_ref_b"]) ** 2
+    lagged2 = (r["current_a"] - r["current_ref_a"]) ** 2 + (r["current_b"] - r["current_ref_b"]) ** 2
     mo, cr, re_ = window(t, MOTION), window(t, CRUISE), window(t, REST)
     tr = np.zeros_like(mo)
     for span in TRANSIENT:
@@ -175,6 +195,7 @@ def metrics(r, p):
         e1_rest_pp=float(np.ptp(e1[window(t, (3.75, DURATION))])),
         v_peak=float(np.max(v)),
         i_rms=float(np.sqrt(np.mean(di2[mo]))),
+        i_rms_lagged=float(np.sqrt(np.mean(lagged2[mo]))),
         bus_fraction=float(np.mean(v[t >= MOTION[0]] >= p["Vbus"] * (1 - 1e-6))),
         bus_fraction_rest=float(np.mean(v[re_] >= p["Vbus"] * (1 - 1e-6))),
         lost_max=float(np.max(np.abs(r["lost_steps"]))),
@@ -494,21 +515,26 @@ def main():
     p = parameters()
     jobs = [(f"{cond}_{c['kind']}{'' if c['rho'] is None else '_' + n[-1]}", n, sets)
             for cond, (_, sets) in CONDITIONS.items() for n, c in CONTROLLERS.items()]
-    jobs.append((f"{EXTRA[0]}_foc_2", EXTRA[1], EXTRA[3]))
+    jobs += [(f"{key}_foc_{name[-1]}", name, sets) for key, name, _, sets in EXTRAS]
+    p["isr_sets"] = {key: float(s.split("=")[1]) for key, _, sets in jobs for s in sets
+                     if s.startswith("shaft.isr_period=")}
     with concurrent.futures.ProcessPoolExecutor(max_workers=2) as pool:   # both cores
         done = list(pool.map(simulate, jobs))
     runs = {cond: {} for cond in CONDITIONS}
-    extra = None
+    extra = {}  # (key, controller) → run, of EXTRAS
     for (key, name, _), r in zip(jobs, done):
         r["metrics"] = metrics(r, p)
-        if key.startswith(EXTRA[0]):
-            extra = r
-        else:
+        if key.split("_")[0] in CONDITIONS:
             runs[key.split("_")[0]][name] = r
+        else:
+            extra[(key.split("_")[0], name)] = r
     sim_wall = time.time() - start
 
     figs = {}
-    for cond, tag in [("a", "ideal drive, 1 MHz"), ("c", "1 MHz, Tsui's detent harmonics added")]:
+    # Each figure names its method: the FOCs' i̇d (analytic, the drive's default) and the step.
+    method = f"analytic i̇d, MuJoCo step {p['timestep'] * 1e6:g} µs"
+    for cond, tag in [("a", f"ideal drive, 1 MHz, {method}"),
+                      ("c", f"1 MHz, Tsui's detent harmonics added, {method}")]:
         if all("t" in r for r in runs[cond].values()):
             figs[f"fig5_{cond}"] = error_figure(runs[cond], p, f"Kim Fig. 5: position tracking error ({tag})",
                                                 f"fig5_position_error_{cond}.png")
@@ -518,7 +544,7 @@ def main():
                                                 f"Kim Fig. 7: current tracking, ia and iad ({tag})",
                                                 f"fig7_currents_{cond}.png")
     if all("t" in r for r in runs["b"].values()):
-        figs["bench"] = bench_figure(runs["b"], p, "5 kHz control, controller J = plant J",
+        figs["bench"] = bench_figure(runs["b"], p, f"5 kHz control, controller J = plant J, {method}",
                                      "bench_5khz.png")
     measured = {n: harmonics(r, p) for n, r in runs["c"].items() if "t" in r}
     if len(measured) == len(CONTROLLERS):
@@ -599,10 +625,16 @@ def write_report(p, runs, extra, measured, stability, figs, sim_wall, wall):
                 f"{sci(m['e1_cruise_pp'])} | {sci(m['e1_end'])} | {m['v_peak']:.2f} | {sci(m['i_rms'])} | "
                 f"{100 * m['bus_fraction']:.0f} % | {m['lost_max']:.0f} | {m['verdict']} |")
     rows = [row(CONDITIONS[cond][0], n, M[cond][n]) for cond in CONDITIONS for n in names]
-    if extra is not None:
-        rows.append(row(EXTRA[2], EXTRA[1], extra["metrics"]))
+    rows += [row(label, name, extra[(key, name)]["metrics"])
+             for key, name, label, _ in EXTRAS if (key, name) in extra]
     table = "\n".join(rows)
-    extra_m = extra["metrics"] if extra is not None else {"verdict": "not run"}
+    extra_m = (extra[("b-num", "FOC case 2")]["metrics"] if ("b-num", "FOC case 2") in extra
+               else {"verdict": "not run"})
+    # C2 with the FOCs' numeric derivative under (a): the STMMS forms no i̇d, so its run is (a)'s.
+    numeric_ok = all(("a-num", n) in extra and "v_peak" in extra[("a-num", n)]["metrics"]
+                     for n in names if n != "STMMS")
+    vp_numeric = ({n: (a[n] if n == "STMMS" else extra[("a-num", n)]["metrics"])["v_peak"]
+                   for n in names} if numeric_ok else None)
 
     # --- CSV precision ---
     gaps = [m["print_gap"] for ms in M.values() for m in ms.values() if "print_gap" in m]
@@ -773,6 +805,11 @@ def write_report(p, runs, extra, measured, stability, figs, sim_wall, wall):
     if ok["b"] and all(b[n]["unstable"] for n in names):
         c1_text.append("Under (b) nothing tracks.")
     c2_text = []
+    c2_numeric = "- **(a) with the FOCs' numeric i̇d**: runs failed; no ordering."
+    if vp_numeric is not None:
+        c2_numeric = (f"- **(a) with the FOCs' numeric i̇d** (STMMS as in (a)): peak |v|: "
+                      f"{order(vp_numeric)}: the paper's order **"
+                      f"{'holds' if holds(vp_numeric, c2_expected) else 'does not hold'}**.")
     if c2_fails:
         c2_text.append(
             f"It does not hold under {listing(c2_fails)}. In these simulations the FOC's high gain costs "
@@ -811,7 +848,7 @@ Every number below was measured by the command that regenerates this page:
     bash scripts/reproduce_kim2016.sh
 
 (it builds, then runs `src/tools/python/reproduce_kim2016.py`, which runs the
-{sum(len(r) for r in runs.values()) + (extra is not None)} simulations two at a time and prints its wall
+{sum(len(r) for r in runs.values()) + len(extra)} simulations two at a time and prints its wall
 time). Logs go to `logs/reproduction/kim2016_*.csv`, figures to `renders/kim2016/`.
 
 ## Setup
@@ -855,7 +892,8 @@ time). Logs go to `logs/reproduction/kim2016_*.csv`, figures to `renders/kim2016
 Over the motion 0.5-3.5 s unless stated: max |e1|; max |e1| over the acceleration and deceleration
 only (0.5-1.0 s and 3.0-3.5 s, the periods Kim's claim C1 speaks of); e1 peak-to-peak in mid-cruise
 (1.5-2.5 s: the ripple); |e1| at the end; peak |v| = max over the run of |va| and |vb|; RMS current
-error sqrt(mean((ia − iad)² + (ib − ibd)²)) over 0.5-3.5 s; the share of samples from 0.5 s on with
+error sqrt(mean((ia − iad)² + (ib − ibd)²)) over 0.5-3.5 s, each reference against the current at
+the interrupt that computed it (same-tick, below); the share of samples from 0.5 s on with
 a phase voltage at the {p['Vbus']:g} V bus; the largest |lost steps| (4·round(δ/2π)) at any time.
 Verdict: a run is "unstable" when it has non-finite or huge values, or when a phase still sits at
 the bus in more than 1 % of the samples after θd has stopped (3.5-4 s: a limit cycle, whose
@@ -865,9 +903,15 @@ frequency is the peak of va's spectrum there).
 |---|---|---|---|---|---|---|---|---|---|---|
 {table}
 
-The last row is an extra run, not one of the nine: FOC case 2 at 5 kHz with
-`foc_derivative=numeric` (backward difference of iad, ibd over one period), to see whether the
-analytic derivative causes its instability (condition (b)).
+The last three rows are extra runs, not among the nine: both FOCs under (a), and FOC case 2 at
+5 kHz, with `foc_derivative=numeric` (backward difference of iad, ibd over one interrupt period,
+as a digital controller forms i̇d; the nine use the analytic derivative, the drive's default). Every
+run is logged at MuJoCo's timestep of {p['timestep'] * 1e6:g} µs, the drives ticking at their own
+period within it. The RMS current error is the tracking error of one tick: the reference an
+interrupt computed against the current at that same interrupt (the logged current taken back one
+period along the winding's solution, S-3; pairing the logged values, which lie one period apart,
+overstates it: FOC case 1 under (a) {sci(a['FOC case 1']['i_rms_lagged'])} A against
+{sci(a['FOC case 1']['i_rms'])} A).
 
 ## Condition (a): the ideal drive (Kim Figs. 5-7)
 
@@ -983,6 +1027,7 @@ case 2: {quote(paper, "the larger position control gain gave us the improvement 
 {quote(paper, "In Case 2, the high mechanical control gain")} … {quote(paper, "resulted in the largest input voltages")}.
 
 {claim_lines('v_peak', c2_expected, 'peak |v|:')}
+{c2_numeric}
 
 {" ".join(c2_text)}
 
