@@ -285,8 +285,9 @@ class StepTimes:
 # engine, which
 # finds this package's plugin library, and plots with this interpreter and the package's script.
 from . import _engine  # noqa: E402
-_engine.set_installation(LIBRARY, sys.executable,
-                         os.path.join(os.path.dirname(os.path.abspath(__file__)), "_plot.py"))
+_HERE = os.path.dirname(os.path.abspath(__file__))
+_engine.set_installation(LIBRARY, sys.executable, os.path.join(_HERE, "_plot.py"),
+                         os.path.join(_HERE, "models"))  # the example models (pip install)
 from ._experiments import (  # noqa: E402,F401
-    Identified, ResonanceTest, RunResult, Sizing, Table, attach, identify, map, pullout,
-    resonance_test, run, size, sweep)
+    Identified, ResonanceTest, RunResult, Sizing, Table, attach, identify, map, model_path,
+    pullout, resonance_test, run, size, sweep)

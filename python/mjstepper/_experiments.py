@@ -104,6 +104,17 @@ def _text(name, value):
     return value
 
 
+def model_path(model):
+    """The file `model` names: itself when it is a file, else the package's example model of that
+    path in the clone or that name ("models/tsui_rigid.xml", "tsui_rigid"; `mjstepper models`
+    lists them), as every experiment reads it; FileNotFoundError naming it when neither."""
+    found = _engine.find_model(_text("model", model))
+    if not found:
+        raise FileNotFoundError(f"{os.fspath(model)!r}: no such file, nor an example model of that "
+                                "name (`mjstepper models` lists them)")
+    return found
+
+
 def speeds_text(speeds):
     """A speed list as the command takes it: a str as it is ("10:200:2.5rpm"), a number or a
     sequence of numbers as rad/s, each to the last bit."""

@@ -62,6 +62,7 @@ def _task(function, model, text, speed, options):
 def _run(function, model, runs, options, address, quiet, what):
     """Runs function(model, speed, threads=1, **options) for each (speed, extra options) in
     `runs` as Ray tasks; the rows in order."""
+    model = _experiments.model_path(model)  # the file the command would read, on this machine
     ray = _import_ray(f"mjstepper.distributed.{what}")
     started = not ray.is_initialized()
     if started:

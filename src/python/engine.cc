@@ -367,10 +367,15 @@ NB_MODULE(_engine, m) {
   m.doc() = "mjstepper's experiments and command (src/tools), bound from C++";
   m.def(
       "set_installation",
-      [](std::string plugin_library, std::string python, std::string plot_script) {
-        SetInstallation({std::move(plugin_library), std::move(python), std::move(plot_script)});
+      [](std::string plugin_library, std::string python, std::string plot_script,
+         std::string models_dir) {
+        SetInstallation({std::move(plugin_library), std::move(python), std::move(plot_script),
+                         std::move(models_dir)});
       },
       "Where the engine finds the plugin library, the plotting Python and its script.");
+  m.def("find_model", &FindModel, nb::arg("path"),
+        "The model file `path` names: itself when a file, else the example model of that path or "
+        "name; \"\" when neither (installation.h).");
   m.def(
       "parse_speeds", [](const std::string& text) { return ParseSpeedList(text); }, nb::arg("text"),
       "A --speeds list (\"10:200:2.5rpm\", \"1,2rad/s\") in rad/s.");

@@ -14,6 +14,7 @@
 
 #include "core/attributes.h"
 #include "core/command_profile.h"
+#include "installation.h"
 #include "output_file.h"
 
 // The version and the MuJoCo built against, from CMake (CMakeLists.txt, from pyproject.toml); a
@@ -48,6 +49,22 @@ void AddStart(CLI::App* app, StartMode* start) {
           },
           "settled|aligned"));
 }
+
+// A CLI11 transform for a model (or --klipper map) file: the path given when it is a file, else
+// the installation's example model it names (installation.h, FindModel), so `mjstepper info
+// tsui_rigid` and the docs' `models/…` paths work outside a clone (issue 32, item 6).
+const CLI::Validator kModelFile(
+    [](std::string& text) -> std::string {
+      const std::string found = FindModel(text);
+      if (found.empty()) {
+        return fmt::format(
+            "'{}': no such file, nor an example model of that name (`mjstepper models` lists them)",
+            text);
+      }
+      text = found;
+      return "";
+    },
+    "FILE", "model file");
 
 // A CLI11 validator for an output path or prefix: not empty (issue 33: `--out ''` wrote files
 // named by their suffix alone, `_raw.csv`, into the working folder).
@@ -108,7 +125,7 @@ CommandLine::CommandLine(bool out_optional)
   Command& c = c_;
 
   run_ = app_.add_subcommand("run", "step a model with command profiles, log to CSV");
-  run_->add_option("model", c.run.model, "MJCF model")->required()->check(CLI::ExistingFile);
+  run_->add_option("model", c.run.model, "MJCF model")->required()->transform(kModelFile);
   AddBounded(run_, "duration", c.run.duration, "simulated time, s")->required();
   run_->add_option(
       "--ctrl", ctrl_,
@@ -123,7 +140,7 @@ CommandLine::CommandLine(bool out_optional)
                    "MAP: a real print's step stream, Klipper's MCU commands from its batch mode "
                    "(parsedump.py output) onto the actuators the map names, each as a steps(FILE) "
                    "--ctrl (models/prints/README.md)")
-      ->check(CLI::ExistingFile);
+      ->transform(kModelFile);
   run_->add_option("--log", c.run.log, "CSV log (a regular file or nothing; written whole)");
   run_->add_option("--accel-log", c.run.accel_log,
                    "the toolhead's virtual ADXL345 in Klipper's raw format (#time,accel_x,"
@@ -171,7 +188,7 @@ CommandLine::CommandLine(bool out_optional)
     std::string* model = sub == pullout_ ? &c.pullout.model : &so->model;
     std::string* actuator = sub == pullout_ ? &c.pullout.actuator : &so->actuator;
     int* threads = sub == pullout_ ? &c.pullout.threads : &so->threads;
-    sub->add_option("model", *model, "MJCF model")->required()->check(CLI::ExistingFile);
+    sub->add_option("model", *model, "MJCF model")->required()->transform(kModelFile);
     sub->add_option("--speeds", c.speeds_text,
                     "from:to:step or a,b,c with a unit (rpm, r/min, rad/s): 10:200:2.5rpm; each "
                     "within ±1e4 rad/s, at most 1e5 speeds")
@@ -206,7 +223,7 @@ CommandLine::CommandLine(bool out_optional)
       "identify", "estimate detent harmonics and static friction from constant-speed runs");
   identify_->add_option("model", c.identify.model, "MJCF with the stepper and a turning actuator")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->transform(kModelFile);
   identify_->add_option("--actuator", c.identify.actuator, "the stepper")->default_val("shaft");
   identify_->add_option("--dyno", c.identify.dyno, "the actuator that turns the shaft (rad/s)")
       ->default_val("dyno");
@@ -224,7 +241,7 @@ CommandLine::CommandLine(bool out_optional)
       "shapers fitted to it");
   resonance_->add_option("model", c.resonance.model, "MJCF printer (see models/README.md)")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->transform(kModelFile);
   resonance_->add_option("--axis", axis_, "x or y")->required()->check(CLI::IsMember({"x", "y"}));
   resonance_
       ->add_option("--out", c.out,
@@ -260,7 +277,7 @@ CommandLine::CommandLine(bool out_optional)
   {
     CLI::App* sub = size_cmd_;
     RunOptions& run = c.size.run;
-    sub->add_option("model", run.model, "MJCF model")->required()->check(CLI::ExistingFile);
+    sub->add_option("model", run.model, "MJCF model")->required()->transform(kModelFile);
     sub->add_option("--move", moves_,
                     "ACTUATOR=P1,P2,…UNIT: the joint's waypoints, one per pose (deg or rad on a "
                     "hinge, mm or m on a slide); the cycle goes from the start pose through each "
@@ -306,7 +323,7 @@ CommandLine::CommandLine(bool out_optional)
       "recommends and a keyframe 'start'");
   attach_->add_option("robot", c.attach.robot, "the robot, MJCF or URDF")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->transform(kModelFile);
   attach_
       ->add_option("--stepper", attach_steppers_,
                    "JOINT:key=value,... (repeatable): the joint's stepper, e.g. "
@@ -331,8 +348,10 @@ CommandLine::CommandLine(bool out_optional)
   plot_->add_flag("--versus-speed", c.versus_speed,
                   "run logs: velocity errors against commanded speed instead of time");
 
+  models_ = app_.add_subcommand(
+      "models", "list the example models (any of them runs by name: mjstepper info tsui_rigid)");
   info_ = app_.add_subcommand("info", "list the steppers of a model and check it");
-  info_->add_option("model", c.model, "MJCF model")->required()->check(CLI::ExistingFile);
+  info_->add_option("model", c.model, "MJCF model")->required()->transform(kModelFile);
 
   tables_ = app_.add_subcommand(
       "tables",
@@ -596,6 +615,10 @@ void CommandLine::Check() {
   }
   if (*info_) {
     c.kind = CommandKind::kInfo;
+    return;
+  }
+  if (*models_) {
+    c.kind = CommandKind::kModels;
     return;
   }
   c.kind = CommandKind::kTables;

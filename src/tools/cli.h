@@ -30,6 +30,7 @@ enum class CommandKind {
   kAttach,
   kPlot,
   kInfo,
+  kModels,
   kTables
 };
 
@@ -105,7 +106,7 @@ class CommandLine {
   CLI::App app_;
   Command c_;
   CLI::App *run_, *sweep_, *map_, *pullout_, *identify_, *resonance_, *size_cmd_, *attach_, *plot_,
-      *info_, *tables_;
+      *info_, *models_, *tables_;
   // Raw texts parsed by Check.
   std::vector<std::string> ctrl_, sets_, masses_, loads_, moves_, move_speeds_, move_accels_,
       attach_steppers_;

@@ -28,6 +28,7 @@
 #include "core/thermal.h"
 #include "core/units.h"
 #include "identify.h"
+#include "installation.h"
 #include "output_file.h"
 #include "plot.h"
 #include "runner.h"
@@ -198,6 +199,20 @@ int Info(const std::string& path) {
         h <= ringing ? fmt::format("{:g} s meets it", h) : fmt::format("{:g} s does not", h));
   }
   return 0;  // warnings inform; they do not fail the command
+}
+
+// `mjstepper models`: the example models, each runnable by name from any folder (FindModel).
+int ListModels() {
+  const std::string& dir = GetInstallation().models_dir;
+  const std::vector<std::string> names = ExampleModels();
+  if (names.empty()) {
+    fmt::print(stderr, "mjstepper: no example models at '{}'\n", dir);
+    return 1;
+  }
+  fmt::print("{} example models in {} (models/README.md there says what each is):\n", names.size(),
+             dir);
+  for (const std::string& name : names) fmt::print("  {}\n", name);
+  return 0;
 }
 
 // The README tables, made from the tables the parser and the sensors use.
@@ -436,6 +451,8 @@ int Main(int argc, const char* const* argv) {
         return WriteTables(c.tables_file);
       case CommandKind::kInfo:
         return Info(c.model);
+      case CommandKind::kModels:
+        return ListModels();
       case CommandKind::kPlot:
         return PlotCsvs(c);
       default: {

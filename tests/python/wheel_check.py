@@ -590,8 +590,20 @@ class HostileArguments(unittest.TestCase):
 
 
 class DocsPython(unittest.TestCase):
-    """Issue 32, item 1: every Python block of the README and docs/ runs as written, in a scratch
-    folder holding the clone's models/ (as from the clone's root), with the installed package."""
+    """Issue 32, items 1 and 6: every Python block of the README and docs/ runs as written, with
+    the installed package, in an empty scratch folder: its `models/…` paths are the package's own
+    example models (installation.h, FindModel)."""
+
+    def test_the_example_models_come_with_the_package(self):
+        folder = tempfile.mkdtemp(prefix="mjstepper_models_")
+        listed = subprocess.run([MJSTEPPER, "models"], cwd=folder, capture_output=True, text=True)
+        self.assertEqual(listed.returncode, 0, listed.stderr)
+        self.assertIn("  tsui_rigid\n", listed.stdout)
+        self.assertIn(os.path.dirname(mjstepper.__file__), listed.stdout)
+        info = subprocess.run([MJSTEPPER, "info", "models/tsui_rigid.xml"], cwd=folder,
+                              capture_output=True, text=True)
+        self.assertEqual(info.returncode, 0, info.stderr)
+        self.assertEqual(mjstepper.run("tsui_rigid", 0.01).steps, 200)
 
     def test_every_python_block_runs(self):
         import glob
@@ -599,7 +611,6 @@ class DocsPython(unittest.TestCase):
         fence = re.compile(r"^```python[^\n]*\n(.*?)^```", re.S | re.M)
         docs = ["README.md"] + sorted(glob.glob("docs/**/*.md", root_dir=SOURCE, recursive=True))
         folder = tempfile.mkdtemp(prefix="mjstepper_docs_python_")
-        os.symlink(os.path.join(SOURCE, "models"), os.path.join(folder, "models"))
         ran = 0
         for doc in docs:
             with open(os.path.join(SOURCE, doc), encoding="utf-8") as f:

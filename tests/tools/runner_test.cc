@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <algorithm>
 #include <cmath>
@@ -524,6 +525,31 @@ TEST(Runner, CoarseTimestepIsFoundAndEnforced) {
                     HasSubstr("use timestep <= 0.000213 s"), HasSubstr("--allow-coarse")));
   r = RunCli("run " + path.string() + " --duration 0.05 --quiet --allow-coarse");
   EXPECT_EQ(r.status, 0) << r.output;
+}
+
+// Issue 32, item 6: the example models run by name, or by their path in the clone, from any folder
+// (installation.h, FindModel); `models` lists them; a name that is neither a file nor a model is
+// a usage error naming it.
+TEST(Runner, ExampleModelsRunByNameFromAnyFolder) {
+  const std::filesystem::path before = std::filesystem::current_path();
+  std::filesystem::current_path(TempDir());  // no models/ here
+  const Result by_path = RunCli("info models/tsui_rigid.xml");
+  const Result by_name = RunCli("run tsui_rigid --duration 0.01 --quiet");
+  const Result print = RunCli(
+      "run models/corexy.xml --duration 0.05 --quiet --klipper "
+      "models/prints/square20/mzv.map");
+  const Result listed = RunCli("models");
+  const Result missing = RunCli("info no_such_model");
+  std::filesystem::current_path(before);
+  EXPECT_EQ(by_path.status, 0) << by_path.output;
+  EXPECT_THAT(by_path.output, HasSubstr("models/tsui_rigid.xml: timestep 5e-05 s, 1 stepper(s)"));
+  EXPECT_EQ(by_name.status, 0) << by_name.output;
+  EXPECT_EQ(print.status, 0) << print.output;
+  EXPECT_EQ(listed.status, 0) << listed.output;
+  EXPECT_THAT(listed.output, AllOf(HasSubstr("  tsui_rigid\n"), HasSubstr("  parol6\n")));
+  EXPECT_EQ(WEXITSTATUS(missing.status), 2) << missing.output;
+  EXPECT_THAT(missing.output,
+              HasSubstr("'no_such_model': no such file, nor an example model of that name"));
 }
 
 // Issue 32, item 8: MuJoCo's RK4 integrates another map than the one the coupling's force is made
