@@ -186,7 +186,9 @@ constexpr AttributeSpec kAttrGauge{
     "beyond the rotor body's geoms along the joint axis on the side the camera looks from: a "
     "long thin green arrow for the commanded electrical angle and a short thick magenta one for "
     "the rotor's; the angle between them is δ, and a magenta arrow sweeping full turns is lost "
-    "steps. `off`: draw nothing."};
+    "steps. Its size is the rotor body's radius, kept within 2.5-50 % of the model's extent "
+    "(`stat.extent`), so that a small pulley's gauge reads at the scene's scale. `off`: draw "
+    "nothing."};
 
 constexpr AttributeSpec kAttrCoupling{
     "coupling", "name", "`consistent`", "—",

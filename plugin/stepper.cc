@@ -98,6 +98,9 @@ const char* TransmissionName(int trntype) {
 
 // The hinge a gauge is drawn on: the joint of a joint transmission (a slide too, as before), the
 // first hinge of a fixed tendon (a pulley written into the belt), else none (-1).
+// The gauge's size, as fractions of the model's extent (GaugeRadius).
+constexpr double kGaugeMinOfExtent = 0.025, kGaugeMaxOfExtent = 0.5;
+
 int GaugeJoint(const mjModel* m, int trntype, int target) {
   if (trntype == mjTRN_JOINT) return target;
   const int adr = m->tendon_adr[target];
@@ -106,6 +109,23 @@ int GaugeJoint(const mjModel* m, int trntype, int target) {
     if (m->jnt_type[m->wrap_objid[w]] == mjJNT_HINGE) return m->wrap_objid[w];
   }
   return -1;
+}
+
+// The gauge's scale (m): its joint's body's bounding radius, kept within 2.5-50 % of the model's
+// extent (MuJoCo's stat.extent), so that the gauge reads at the scene's scale (issue 32, item 4:
+// a few pixels on a 6 mm pulley, huge on a slide's carriage); 2 cm with no joint or extent.
+double GaugeRadius(const mjModel* m, int joint) {
+  if (joint < 0) return 0.02;
+  const int body = m->jnt_bodyid[joint];
+  double radius = 0;
+  for (int g = m->body_geomadr[body]; g >= 0 && g < m->body_geomadr[body] + m->body_geomnum[body];
+       ++g) {
+    radius = std::max(radius, m->geom_rbound[g]);
+  }
+  const double extent = m->stat.extent;  // m
+  if (!(extent > 0)) return radius > 0 ? radius : 0.02;
+  return std::clamp(radius > 0 ? radius : 0.02, kGaugeMinOfExtent * extent,
+                    kGaugeMaxOfExtent * extent);
 }
 
 // Output `row`'s rate (rad/s or m/s): its moment row (per output, gear included) times qvel, as
@@ -334,6 +354,7 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
                                    .qposadr = trntype == mjTRN_JOINT ? m->jnt_qposadr[target] : -1,
                                    .tendon = trntype == mjTRN_TENDON ? target : -1,
                                    .gauge_joint = GaugeJoint(m, trntype, target),
+                                   .gauge_radius = GaugeRadius(m, GaugeJoint(m, trntype, target)),
                                    .gear = gear});
     // The rotor's inertia is MuJoCo's business (armature); the preset knows its value.
     const double rotor_inertia = stepper->drive_->config().motor.rotor_inertia;  // kg·m²
@@ -933,13 +954,7 @@ void Stepper::Visualize(const mjModel* m, const mjData* d, mjvScene* scene, int 
     const int body = m->jnt_bodyid[joint];
     const double theta = d->actuator_length[a.outadr];
     const double load_angle = drive_->Signals(CurrentState(m, d, instance, slot), theta).load_angle;
-    // Size from the rotor body's geoms; 2 cm if it has none.
-    double radius = 0;
-    for (int g = m->body_geomadr[body]; g >= 0 && g < m->body_geomadr[body] + m->body_geomnum[body];
-         ++g) {
-      radius = std::max(radius, m->geom_rbound[g]);
-    }
-    if (radius <= 0) radius = 0.02;
+    const double radius = a.gauge_radius;  // m (GaugeRadius)
     const mjtNum* axis = d->xaxis + 3 * joint;
     const mjtNum* xmat = d->xmat + 9 * body;
     // Reference: the body's y axis (else x) with its component along the joint axis removed.

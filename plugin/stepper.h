@@ -85,9 +85,10 @@ class Stepper {
     int ctrladr = 0;
     int actadr = -1;  // the activation the drive reads instead of ctrl (a dyntype set), or -1
     int outadr = 0;
-    int qposadr = -1;      // a joint transmission's joint: θ = gear·qpos[qposadr]
-    int tendon = -1;       // a tendon transmission's tendon (plugin/README.md, "Tendons")
-    int gauge_joint = -1;  // the hinge the gauge is drawn on, or -1 (none)
+    int qposadr = -1;            // a joint transmission's joint: θ = gear·qpos[qposadr]
+    int tendon = -1;             // a tendon transmission's tendon (plugin/README.md, "Tendons")
+    int gauge_joint = -1;        // the hinge the gauge is drawn on, or -1 (none)
+    double gauge_radius = 0.02;  // m, the gauge's scale (GaugeRadius, at load)
     double gear = 1;
   };
   /// C-2 / C-3 of core/coupling.h over every started stepper of coupled_: the torques handed to

@@ -1390,7 +1390,12 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
   s->set_rotor_phasor(phasor1);
   // (STEP/DIR: the count's angle exactly at the command's end; a sub-step before it, its share.)
   s->theta_cmd = steps && !(command_end > t1) ? target : at_end.theta;
-  s->omega_cmd = profiled ? at_end.omega : omega_cmd;
+  // The signal (read nowhere else for a step list): from a list, its step rate at the step's end,
+  // not the step's count change, which alternates between 0 and a microstep per step when the
+  // pulses are slower than the steps (issue 32, item 4).
+  s->omega_cmd = profiled          ? at_end.omega
+                 : list != nullptr ? list->Rate(t1) * step_angle_
+                                   : omega_cmd;
   if (profiled) Pack(plan, s->unit.data() + layout_.controller);
   if constexpr (C::kCountsSlips) {  // open loop: a slip is a whole electrical cycle lost or won
     const double cell = SlipCell(constants_.rotor_teeth * (s->theta_cmd - theta1), s->slip_cell);

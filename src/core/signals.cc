@@ -22,7 +22,10 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
        &S::current_ref_a},
       {"current_ref_b", "A", "the same for phase B", &S::current_ref_b},
       {"theta_cmd", "rad", "commanded rotor angle θcmd (θd of the motion profile)", &S::theta_cmd},
-      {"omega_cmd", "rad/s", "commanded rotor speed", &S::omega_cmd},
+      {"omega_cmd", "rad/s",
+       "commanded rotor speed; from a step list (steps(FILE)), its step rate at the step's end: a "
+       "microstep over the interval between the pulses around it",
+       &S::omega_cmd},
       {"torque_em", "N·m",
        "electromagnetic torque τm (S-4), with Km(T_w) under `heat`; a switching chopper's from "
        "its currents less their ripple where the step does not resolve the chopper's cycle (a "

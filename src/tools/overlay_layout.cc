@@ -29,7 +29,7 @@ TableText StepperTableTemplate() {
   // panel's widest (issue 32, item 4: a name cut to the label column read "steppe~"); each is
   // fitted to it only when longer than the whole column.
   return {{"stepper", "drive", "damping", "cmd", "speed", "load", "lost"},
-          {"-8888.8 r/min", "-8888.8 r/min", "h 2 4 6", "-8888.8 r/min", "-8888.8 r/min",
+          {"-8888.8 r/min", "-8888.8 r/min", "SG 1023 STALL", "-8888.8 r/min", "-8888.8 r/min",
            "+8.888 el. rad", "+88888 steps"}};
 }
 
@@ -69,6 +69,15 @@ std::string FitText(const std::string& text, int max_width, const FontMetrics& f
   std::string cut = text;
   while (!cut.empty() && font.width(cut + "~") > max_width) cut.pop_back();
   return font.width(cut + "~") <= max_width ? cut + "~" : "";
+}
+
+const char* TickFormat(double max_abs) {
+  if (!(max_abs < 1e5)) return "%.2g";  // NaN, inf, absurd: MuJoCo's own compact form
+  static const char* const kFixed[] = {"%.0f", "%.1f", "%.2f", "%.3f", "%.4f"};
+  const int decimals =
+      max_abs > 0 ? static_cast<int>(std::clamp(1.0 - std::floor(std::log10(max_abs)), 0.0, 4.0))
+                  : 1;
+  return kFixed[decimals];
 }
 
 int OverlayLayout::PageAt(double video_time) const {

@@ -45,6 +45,14 @@ PixelRect TableSize(const TableText& text, const FontMetrics& font);
 /// The figure titles, in plot order, and the widest y tick label a plot draws ("%.2g").
 extern const char* const kPlotTitles[3];
 inline constexpr char kWidestTick[] = "-8.8e+08";
+
+/// The printf format of a plot's y tick labels for data up to `max_abs` in magnitude: fixed point
+/// with two significant digits at the largest tick (issue 32, item 4: "%.2g" printed 150 r/min as
+/// "1.5e+02"), 0 to 4 decimals; "%.2g" only beyond 1e5, at most as wide as kWidestTick.
+const char* TickFormat(double max_abs);
+
+/// The printf format of the time ticks: seconds, with their unit.
+inline constexpr char kTimeTickFormat[] = "%.2fs";
 /// Worst-case strings of a stepper's table (values widest): the layout reserves room for them; the
 /// session fits its names into the same widths (FitText).
 TableText StepperTableTemplate();

@@ -21,14 +21,21 @@ struct RenderSession::History {
 
 TableText StepperTable(const StepperActuator& stepper, const StepperSample& last,
                        const OverlayLayout& layout, const FontMetrics& font) {
-  std::string damping;
-  if (const HarmonicCompensation* comp = Damping(stepper.config.controller)) {
-    for (const DetentHarmonic& h : comp->harmonics) damping += fmt::format(" {}", h.order);
+  // The third line: a drive with StallGuard shows SG_RESULT and its stall flag (issue 32, item 4:
+  // a homing video could not show the detection); any other its detent damping.
+  std::string third_label = "damping", third = "none";
+  if (StallGuardOf(stepper.config.controller) != nullptr) {
+    third_label = "stall";
+    third = fmt::format("SG {:.0f}{}", last.stallguard, last.stall ? " STALL" : "");
+  } else if (const HarmonicCompensation* comp = Damping(stepper.config.controller);
+             comp != nullptr && !comp->harmonics.empty()) {
+    third = "h";
+    for (const DetentHarmonic& h : comp->harmonics) third += fmt::format(" {}", h.order);
   }
-  return {{"stepper", "drive", "damping", "cmd", "speed", "load", "lost"},
+  return {{"stepper", "drive", third_label, "cmd", "speed", "load", "lost"},
           {FitText(stepper.name, layout.value_width, font),
            FitText(ControllerName(stepper.config.controller), layout.value_width, font),
-           FitText(damping.empty() ? "none" : "h" + damping, layout.value_width, font),
+           FitText(third, layout.value_width, font),
            fmt::format("{:.1f} r/min", RadPerSecToRpm(last.omega_cmd)),
            fmt::format("{:.1f} r/min", RadPerSecToRpm(last.omega_cmd + last.velocity_error)),
            fmt::format("{:+.3f} el. rad", last.load_angle),
@@ -101,11 +108,13 @@ void RenderSession::RenderFrame(double frame_time, mjData* d) {
     const int pages = static_cast<int>(layout_.pages.size());
     renderer_->DrawTable(layout_.time, fmt::format("t = {:.4f} s", frame_time), "");
     if (pages > 0) {
-      renderer_->DrawTable(layout_.header,
-                           pages == 1 ? fmt::format("all {} steppers", overlay_.size())
-                                      : fmt::format("page {}/{}, {:g} s each", page + 1, pages,
-                                                    layout_.page_seconds),
-                           "");
+      renderer_->DrawTable(
+          layout_.header,
+          pages == 1
+              ? (overlay_.size() == 1 ? std::string("1 stepper")
+                                      : fmt::format("all {} steppers", overlay_.size()))
+              : fmt::format("page {}/{}, {:g} s each", page + 1, pages, layout_.page_seconds),
+          "");
     }
     for (const StepperSlot& slot : pages > 0 ? layout_.pages[page] : std::vector<StepperSlot>{}) {
       const int index = overlay_[slot.stepper];
@@ -139,8 +148,8 @@ void RenderSession::RenderFrame(double frame_time, mjData* d) {
         fig.panergba[3] = 0.6f;
         fig.range[0][0] = frame_time - options_.window;
         fig.range[0][1] = frame_time;
-        std::snprintf(fig.xformat, sizeof(fig.xformat), "%%.2f");
-        std::snprintf(fig.yformat, sizeof(fig.yformat), "%%.2g");
+        std::snprintf(fig.xformat, sizeof(fig.xformat), "%s", kTimeTickFormat);
+        double max_abs = 0;  // of the plotted data: the ticks' decimals (TickFormat)
         std::snprintf(fig.title, sizeof(fig.title), "%s", kPlotTitles[p]);
         const float colours[2][3] = {{0.95f, 0.35f, 0.2f}, {0.3f, 0.7f, 1.0f}};
         for (size_t l = 0; l < plots[p].lines.size(); ++l) {
@@ -151,9 +160,12 @@ void RenderSession::RenderFrame(double frame_time, mjData* d) {
                 static_cast<float>(plots[p].scale * (hist.samples[k].*plots[p].lines[l].second));
           }
           fig.linepnt[l] = n;
+          for (int q = 0; q < n; ++q)
+            max_abs = std::max(max_abs, std::abs(static_cast<double>(fig.linedata[l][2 * q + 1])));
           std::copy(colours[l], colours[l] + 3, fig.linergb[l]);
           std::snprintf(fig.linename[l], sizeof(fig.linename[l]), "%s", plots[p].lines[l].first);
         }
+        std::snprintf(fig.yformat, sizeof(fig.yformat), "%s", TickFormat(max_abs));
         // The legend (ia, ib) needs two lines of the plot area: MuJoCo cuts it to one below that.
         fig.flg_legend =
             plots[p].lines.size() > 1 && slot.plots[p].height >= 6 * renderer_->font().char_height;

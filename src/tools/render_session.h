@@ -29,6 +29,8 @@ struct StepperSample {
   double current_a = 0, current_b = 0;  ///< A
   double load_angle = 0;                ///< electrical rad
   double lost_steps = 0;
+  double stallguard = 0;  ///< SG_RESULT (counts), on drives with StallGuard
+  bool stall = false;     ///< the drive's stall flag (its DIAG output)
 };
 
 /// A stepper's table as the overlay draws it (labels, values), its name and drive fitted to the

@@ -335,6 +335,8 @@ RunResult Run(const RunOptions& given, std::ostream& progress) {
     static const int kLostSteps = SignalIndex("lost_steps");
     static const int kCurrentA = SignalIndex("current_a");
     static const int kCurrentB = SignalIndex("current_b");
+    static const int kStallGuard = SignalIndex("stallguard");
+    static const int kStall = SignalIndex("stall");
     mj_step(m, d);
     // MuJoCo resets the whole simulation when qpos, qvel or qacc turn bad, and counts it: what
     // followed would be a run from qpos0 reported as this one.
@@ -367,7 +369,9 @@ RunResult Run(const RunOptions& given, std::ostream& progress) {
                     .current_a = signals[kCurrentA],
                     .current_b = signals[kCurrentB],
                     .load_angle = signals[kLoadAngle],
-                    .lost_steps = signals[kLostSteps]};
+                    .lost_steps = signals[kLostSteps],
+                    .stallguard = signals[kStallGuard],
+                    .stall = signals[kStall] != 0};
       if (options.keep_traces) {
         StepperTrace& trace = result.traces[i];
         trace.time.push_back(t - settle);

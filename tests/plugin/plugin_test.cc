@@ -559,6 +559,27 @@ TEST(StepperPlugin, StiffDetentWarnsAtLoad) {
   EXPECT_EQ(warnings.ours().size(), before);
 }
 
+// A scene of (m, d) from MuJoCo's default camera, and its arrows (the gauges'), freed with it.
+struct GaugeScene {
+  GaugeScene(const mjModel* m, mjData* d) {
+    mjv_defaultScene(&scene);
+    mjv_makeScene(m, &scene, 100);
+    mjvOption option;
+    mjv_defaultOption(&option);
+    mjvCamera camera;
+    mjv_defaultCamera(&camera);
+    mjv_updateScene(m, d, &option, nullptr, &camera, mjCAT_ALL, &scene);
+    for (int g = 0; g < scene.ngeom; ++g) {
+      if (scene.geoms[g].type == mjGEOM_ARROW) arrows.push_back(&scene.geoms[g]);
+    }
+  }
+  ~GaugeScene() { mjv_freeScene(&scene); }
+  GaugeScene(const GaugeScene&) = delete;
+  GaugeScene& operator=(const GaugeScene&) = delete;
+  mjvScene scene;
+  std::vector<const mjvGeom*> arrows;
+};
+
 // The load-angle gauge (visualize callback): two arrows per stepper in the scene, the rotor's at
 // −δ from the command's about the joint axis, so the angle between them is the load angle; none
 // with gauge="off".
@@ -571,18 +592,8 @@ TEST(StepperPlugin, GaugeShowsTheLoadAngle) {
     const DataPtr d(mj_makeData(m.get()));
     d->ctrl[0] = 0.01;  // rad: the drive starts at rest on θcmd = 0.01 with the rotor at 0
     mj_forward(m.get(), d.get());
-    mjvScene scene;
-    mjv_defaultScene(&scene);
-    mjv_makeScene(m.get(), &scene, 100);
-    mjvOption option;
-    mjv_defaultOption(&option);
-    mjvCamera camera;
-    mjv_defaultCamera(&camera);
-    mjv_updateScene(m.get(), d.get(), &option, nullptr, &camera, mjCAT_ALL, &scene);
-    std::vector<const mjvGeom*> arrows;
-    for (int g = 0; g < scene.ngeom; ++g) {
-      if (scene.geoms[g].type == mjGEOM_ARROW) arrows.push_back(&scene.geoms[g]);
-    }
+    const GaugeScene scene(m.get(), d.get());
+    const std::vector<const mjvGeom*>& arrows = scene.arrows;
     if (std::string(gauge) == "off") {
       EXPECT_TRUE(arrows.empty());
     } else {
@@ -594,7 +605,33 @@ TEST(StepperPlugin, GaugeShowsTheLoadAngle) {
       // float matrices: 1e-5 rad
       EXPECT_NEAR(std::remainder(command - rotor, kTwoPi), delta, 1e-5);
     }
-    mjv_freeScene(&scene);
+  }
+}
+
+// Issue 32, item 4: the gauge is sized to the scene, not only to its rotor's body: a 3 mm pulley
+// in a 2 m scene gets arrows of at least 2.5 % of the extent (it had 6 mm ones, a few pixels); a
+// 0.5 m body keeps its own size, within half the extent (the arrows never longer than the scene).
+// The command's arrow is two scales long.
+TEST(StepperPlugin, GaugeIsSizedToTheScene) {
+  for (double body_radius : {0.003, 0.5}) {
+    const std::string xml = fmt::format(
+        R"(<mujoco><option timestep="5e-5" integrator="implicitfast"/>
+      <extension><plugin plugin="mjstepper.stepper"/></extension>
+      <worldbody><geom type="box" size="1 1 0.01" pos="0 0 -0.1"/>
+        <body name="r1"><joint name="j1" type="hinge" axis="0 0 1"/>
+          <geom type="cylinder" size="{0} 0.002" mass="0.001"/></body></worldbody>
+      <actuator>{1}</actuator></mujoco>)",
+        body_radius, TsuiActuator("m1", "j1", Config("drive", "ideal_current")));
+    std::string error;
+    const ModelPtr m = LoadModel(xml, &error);
+    ASSERT_TRUE(m) << error;
+    const DataPtr d(mj_makeData(m.get()));
+    mj_forward(m.get(), d.get());
+    const GaugeScene scene(m.get(), d.get());
+    ASSERT_FALSE(scene.arrows.empty());
+    const double extent = m->stat.extent, length = scene.arrows[0]->size[2];  // m: the command's
+    EXPECT_GE(length, 2 * 0.025 * extent * (1 - 1e-5)) << body_radius;
+    EXPECT_LE(length, 2 * 0.5 * extent * (1 + 1e-5)) << body_radius;
   }
 }
 

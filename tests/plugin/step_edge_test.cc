@@ -210,5 +210,39 @@ TEST(StepEdges, AListOfPulseTimesDrivesTheCountAtItsOwnTimes) {
   std::filesystem::remove(path);
 }
 
+// Issue 32, item 4: with a list, the omega_cmd signal is the list's step rate (a microstep over
+// the pulses' interval), steady at a steady rate; it was the step's count change, which alternated
+// between 0 and a microstep per timestep (0 and 1875 r/min where the rate was 1500) when the
+// pulses are slower than the steps.
+TEST(StepEdges, AListsCommandedSpeedIsItsStepRate) {
+  const auto path = std::filesystem::temp_directory_path() / "mjstepper_step_rate_pulses.txt";
+  constexpr double kInterval = 0.37e-3;  // s between pulses: 3.7 timesteps
+  {
+    std::ofstream out(path);
+    for (int k = 0; k < 100; ++k) out << 0.01 + kInterval * k << "\n";
+  }
+  std::string error;
+  const ModelPtr m = LoadModel(
+      BenchRotorModel(Config("motor", "17hs19_2004s1") + Config("driver", "tmc2209") +
+                          Config("input", "steps") + Config("step_times", path.string()),
+                      1.5e-3, 1e-4),
+      &error);
+  ASSERT_TRUE(m) << error;
+  const DataPtr d(mj_makeData(m.get()));
+  const double step_angle = 2 * std::numbers::pi / (4 * kNr * kMicrosteps);  // rad
+  const int omega_cmd = SignalIndex("omega_cmd");
+  int seen = 0;
+  while (d->time < 0.04) {
+    mj_step(m.get(), d.get());
+    mj_forward(m.get(), d.get());  // the sensors after the step's end
+    if (d->time < 0.012 || d->time > 0.04) continue;  // within the pulses, not at their ends
+    EXPECT_NEAR(d->sensordata[omega_cmd], step_angle / kInterval, 1e-9 * step_angle / kInterval)
+        << "t = " << d->time;
+    ++seen;
+  }
+  EXPECT_GT(seen, 200);
+  std::filesystem::remove(path);
+}
+
 }  // namespace
 }  // namespace mjstepper::testing

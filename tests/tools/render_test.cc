@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -485,6 +487,51 @@ TEST(RenderCamera, DefaultCameraFramesTheBodies) {
   EXPECT_GE(std::max(x_high - x_low, y_high - y_low) / 2, 0.8)
       << "x " << x_low << ".." << x_high << ", y " << y_low << ".." << y_high;
   mjv_freeScene(&scene);
+}
+
+}  // namespace
+}  // namespace mjstepper::tools
+
+namespace mjstepper::tools {
+namespace {
+
+// Issue 32, item 4: a drive with StallGuard shows SG_RESULT and the stall flag in its table (a
+// homing video could not show the detection); a drive without it shows its detent damping there.
+TEST(RenderLayout, AStallGuardDriveShowsItsResultAndStallFlag) {
+  const std::string model = MJSTEPPER_SOURCE_DIR "/models/tsui_rigid.xml";
+  const StepperModel plain = LoadStepperModel(model);
+  const StepperModel sensing = LoadStepperModel(model, {{"shaft", "driver", "tmc2209"},
+                                                        {"shaft", "drive", "stealthchop"},
+                                                        {"shaft", "sgthrs", "40"}});
+  OffscreenRenderer renderer(plain.model.get(), {.width = 640, .height = 480, .camera = ""});
+  const OverlayLayout layout = LayOutOverlay(640, 480, 1, renderer.font());
+  const StepperSample stalled{.stallguard = 37, .stall = true};
+  TableText table = StepperTable(sensing.steppers[0], stalled, layout, renderer.font());
+  EXPECT_EQ(table.labels[2], "stall");
+  EXPECT_EQ(table.values[2], "SG 37 STALL");
+  EXPECT_LE(TableSize(table, renderer.font()).width, layout.pages[0][0].table.width);
+  table = StepperTable(sensing.steppers[0], {.stallguard = 300}, layout, renderer.font());
+  EXPECT_EQ(table.values[2], "SG 300");
+  table = StepperTable(plain.steppers[0], stalled, layout, renderer.font());
+  EXPECT_EQ(table.labels[2], "damping");
+  EXPECT_EQ(table.values[2], "none");
+}
+
+// Issue 32, item 4: the plots' y ticks are fixed point with two significant digits (MuJoCo's
+// "%.2g" printed 150 r/min as "1.5e+02"), never wider than the layout allows; time ticks say "s".
+TEST(RenderLayout, TickLabelsAreFixedPointWithTwoDigitsAndFit) {
+  for (double m : {0.001, 0.003, 0.02, 0.5, 2.0, 20.0, 150.0, 2500.0, 99999.0}) {
+    for (double v : {m, -m}) {
+      char text[64];
+      std::snprintf(text, sizeof(text), TickFormat(m), v);
+      EXPECT_EQ(std::string(text).find('e'), std::string::npos) << m << ": " << text;
+      EXPECT_LE(std::strlen(text), std::strlen(kWidestTick)) << text;
+      EXPECT_NEAR(std::strtod(text, nullptr) / v, 1.0, 0.05) << text;  // two digits: 5 %
+    }
+  }
+  char time[16];
+  std::snprintf(time, sizeof(time), kTimeTickFormat, 0.25);
+  EXPECT_STREQ(time, "0.25s");
 }
 
 }  // namespace

@@ -69,6 +69,20 @@ std::vector<const AttributeSpec*> AllControllerAttributes();
 std::vector<std::string> ControllersReading(const std::string& attribute);
 
 /// The harmonic compensation a controller applies, or null for one that has none.
+/// The drive's StallGuard (sensors/stallguard.h), or nullptr for a drive that has none (version 0
+/// included).
+inline const StallGuard* StallGuardOf(const Controller& c) {
+  return std::visit(
+      [](const auto& unit) -> const StallGuard* {
+        if constexpr (requires { unit.stallguard.version; }) {
+          return unit.stallguard.version > 0 ? &unit.stallguard : nullptr;
+        } else {
+          return nullptr;
+        }
+      },
+      c);
+}
+
 inline const HarmonicCompensation* Damping(const Controller& c) {
   return std::visit(
       [](const auto& unit) -> const HarmonicCompensation* {

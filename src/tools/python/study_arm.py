@@ -69,8 +69,10 @@ def main():
     runs = {}
     for name, damping in [("undamped", "none"), ("damped", "all")]:
         log = f"logs/study_arm_{name}.csv"
-        extra = ["--render", "renders/arm/arm.mp4", "--camera", "front", "--size", "640x480",
-                 "--fps", "30"] if name == "damped" else []
+        # The study's two joints of interest, side by side on one page for the whole video.
+        extra = ["--render", "renders/arm/arm.mp4", "--camera", "front", "--size", "1280x720",
+                 "--fps", "30", "--overlay", "shoulder", "--overlay", "elbow"] \
+            if name == "damped" else []
         run(["run", MODEL, "--set", f"base.damping={damping}", "--log", log] + move + extra)
         runs[name] = metrics(os.path.join(ROOT, log))
     fn = natural_frequencies()
@@ -137,8 +139,9 @@ largest load angle, the lost steps counted, and the joint angle reached.
 
 ![](../../renders/arm/velocity_error.png)
 
-Video of the damped run: [`renders/arm/arm.mp4`](../../renders/arm/arm.mp4) (640×480, real time,
-with the drives' load-angle gauges and overlay plots).
+Video of the damped run: [`renders/arm/arm.mp4`](../../renders/arm/arm.mp4) (1280×720, real time,
+with the drives' load-angle gauges; the side panel shows the shoulder and the elbow, the joints
+cruising on their resonances, side by side for the whole move).
 
 ## Reading
 
