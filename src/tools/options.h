@@ -41,6 +41,10 @@ inline constexpr int kMinMeasuredSteps = 100;
 /// "10:200:2.5rpm" (from:to:step, inclusive), "50,100,150rpm", or one speed; units rpm, r/min,
 /// rad/s. Every speed within Range("speed") and at most kMaxRuns of them. Throws
 /// std::invalid_argument naming `option` and quoting the text.
+/// `text` as a message quotes it: whole up to 60 characters, else its first 60 and its length
+/// (issue 33: a message echoed a 100 MB argument).
+std::string Excerpt(const std::string& text);
+
 std::vector<double> ParseSpeedList(const std::string& text, const std::string& option = "--speeds");
 
 /// "WxH", two decimal integers each within Range("size"); throws naming --size.

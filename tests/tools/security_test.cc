@@ -3,6 +3,7 @@
 // bounded before any work. The command runs as a child process started with an argument vector
 // (no shell in the test either, so the paths reach it byte for byte).
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -362,6 +363,26 @@ TEST(Security, BoundsThatNeedTheModelFailBeforeAnyStep) {
 }  // namespace
 
 namespace {
+
+// Issue 33: a speed list of the documented maximum, 1e5 numbers (2 MB of text), parses (each
+// number's bound check formatted a message quoting the whole list: quadratic, minutes; the time is
+// not asserted here), and a message about a long list quotes a bounded excerpt of it.
+TEST(Security, ALongSpeedListParsesAndItsMessagesQuoteAnExcerpt) {
+  std::string text;
+  for (int k = 0; k < 100000; ++k) text += fmt::format("{}{:.17g}", k ? "," : "", 1 + k * 1e-5);
+  const std::vector<double> speeds = mjstepper::tools::ParseSpeedList(text + "rad/s");
+  ASSERT_EQ(speeds.size(), 100000u);
+  EXPECT_EQ(speeds.back(), 1 + 99999 * 1e-5);
+  for (const std::string& bad : {text + ",nope" + "rad/s", text + ",1e9rad/s", text + ",1rad/s"}) {
+    try {
+      mjstepper::tools::ParseSpeedList(bad);
+      ADD_FAILURE() << "accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_LT(std::string(e.what()).size(), 300u) << std::string(e.what()).substr(0, 400);
+      EXPECT_THAT(e.what(), HasSubstr("characters)"));
+    }
+  }
+}
 
 // The README's option-range table and its list of every front-end's options (issue 32, item 1)
 // are the ones generated from the tables the parser uses: an edited bound or option fails here
