@@ -135,6 +135,27 @@ constexpr AttributeSpec kAttrBackdriveEfficiency{
     "The gear train's efficiency driven back (load → motor, τ·ω < 0: lowering a load, braking): "
     "the load must exert τ/backdrive_efficiency. Below `efficiency` for gear meshes (2 − "
     "1/efficiency for a mesh whose loss is its friction: an estimate). In [0.01, 1]."};
+// The carriage of a rotary joint (issue 32, item 3; src/core/transmission.h).
+constexpr AttributeSpec kAttrPulleyTeeth{
+    "pulley_teeth", "integer", "none", "teeth",
+    "A timing-belt pulley on the stepper's hinge joint: its tooth count. With `belt_pitch` it "
+    "declares the carriage, which moves teeth × pitch per turn of the joint (Klipper's "
+    "`rotation_distance`: 40 mm for a GT2 20-tooth pulley), so that profiles (`--ctrl`), "
+    "`sweep`, `pullout`, `map`, `size` and the log speak mm, mm/s and N at the carriage "
+    "(README, \"Linear axes\"). On a hinge joint only (a slide's or a tendon's gear is already "
+    "rad per metre); where the hinge winds a fixed tendon with a slide joint in it (a belt), the "
+    "tendon's coefficient must be the pulley's pitch radius, teeth × pitch / 2π, within 0.1 %. "
+    "In [1, 1000]; not with `lead`."};
+constexpr AttributeSpec kAttrBeltPitch{
+    "belt_pitch", "real", "0.002 (GT2)", "m",
+    "The belt's tooth pitch, with `pulley_teeth`: 2 mm for GT2 (Gates PowerGrip GT2, 2MGT), "
+    "3 mm for GT2-3M, 5 mm for HTD-5M and T5. In [0.0005, 0.05]."};
+constexpr AttributeSpec kAttrLead{
+    "lead", "real", "none", "m",
+    "A lead screw (or any carriage) on the stepper's hinge joint: the travel per turn of the "
+    "joint (a screw's lead: 8 mm for the Tr8×8 of most printers' Z, 2 mm for Tr8×2; π·d for a "
+    "rack's pinion of pitch diameter d). The same use as `pulley_teeth`, not with it. In "
+    "[1e-5, 10]."};
 // Heat (SPEC §8, src/core/thermal.h).
 constexpr AttributeSpec kAttrHeat{
     "heat", "name", "`auto`", "—",
@@ -254,6 +275,9 @@ const std::vector<const AttributeSpec*>& DriveAttributes() {
                                                          &kAttrProfileStart,
                                                          &kAttrEfficiency,
                                                          &kAttrBackdriveEfficiency,
+                                                         &kAttrPulleyTeeth,
+                                                         &kAttrBeltPitch,
+                                                         &kAttrLead,
                                                          &kAttrHeat,
                                                          &kAttrAmbientTemperature,
                                                          &kAttrInitialTemperature,
@@ -411,6 +435,20 @@ DriveConfig Parse(const AttributeSource& a) {
   c.transmission.efficiency = a.Real(kAttrEfficiency, 1.0, 0.01, 1.0);
   c.transmission.backdrive_efficiency =
       a.Real(kAttrBackdriveEfficiency, c.transmission.efficiency, 0.01, 1.0);
+  c.transmission.pulley_teeth = a.Integer(kAttrPulleyTeeth, 0, 1, 1000);
+  c.transmission.belt_pitch = a.Real(kAttrBeltPitch, 0.002, 0.0005, 0.05);
+  c.transmission.lead = a.Real(kAttrLead, 0.0, 1e-5, 10.0);
+  if (c.transmission.pulley_teeth > 0 && c.transmission.lead > 0) {
+    ThrowBad(kAttrLead, *a.Raw(kAttrLead),
+             fmt::format("the carriage is declared twice: pulley_teeth = {} and lead; give one "
+                         "(a belt pulley: pulley_teeth, belt_pitch; a lead screw: lead)",
+                         c.transmission.pulley_teeth));
+  }
+  if (a.Raw(kAttrBeltPitch) && c.transmission.pulley_teeth == 0) {
+    ThrowBad(kAttrBeltPitch, *a.Raw(kAttrBeltPitch),
+             "a belt's pitch needs its pulley: set pulley_teeth too");
+  }
+  if (c.transmission.pulley_teeth == 0) c.transmission.belt_pitch = 0;
   if (c.profile.kind != ProfileKind::kNone && c.input != InputMode::kPosition) {
     ThrowBad(kAttrProfile, profile,
              "a motion profile moves to a target angle: it needs input = position (ctrl in rad)");

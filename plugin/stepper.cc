@@ -14,6 +14,7 @@
 #include <tuple>
 #include <variant>
 
+#include "carriage.h"
 #include "config.h"
 #include "core/signals.h"
 #include "core/substep.h"
@@ -340,6 +341,10 @@ std::unique_ptr<Stepper> Stepper::Create(const mjModel* m, int instance, bool ad
       return fail_for(actuator, fmt::format("gear = {:g}: |gear| must be between {:g} and {:g} "
                                             "(the rotor turns gear times the joint)",
                                             gear, kMinGear, kMaxGear));
+    }
+    if (const std::string why = CarriageMismatch(m, a, stepper->drive_->config().transmission);
+        !why.empty()) {
+      return fail_for(actuator, why);
     }
     // With a dyntype (filter, integrator, ...) MuJoCo integrates the actuator's activation from
     // ctrl, and its own actuators feed that activation, not ctrl, to their gain: so does the

@@ -85,7 +85,7 @@ class Sizing:
     simulated pull-out curve (rotor side, SI)."""
     table: Table  # joint, motor, drive, gear, ..., margin, lost_steps, winding temperatures (°C)
     demand: dict  # joint → Table(time, speed, torque, motor_speed, motor_torque)
-    pullout: dict  # joint → Table(speed, torque, slipped_unloaded, held_max)
+    pullout: dict  # joint → Table(speed, torque, slipped_unloaded, held_max, carriage_speed, force)
     cycle_time: float  # s
     cycles: int
 
@@ -251,9 +251,10 @@ def sweep_args(model, speeds, *, actuator=None, settle=None, measure=None, threa
 
 
 def sweep(model, speeds, **options):
-    """`mjstepper sweep`: one constant-speed run per speed (a str such as "10:200:2.5rpm", or
-    numbers in rad/s) on all cores; a Table of speed, rms_error, peak_to_peak_error (rad/s),
-    dominant_frequency (Hz), lost_steps. `out=PREFIX` also writes PREFIX.csv and PREFIX.png.
+    """`mjstepper sweep`: one constant-speed run per speed (a str such as "10:200:2.5rpm" or, on
+    a linear axis, "50:200:10mm/s"; or numbers in rad/s) on all cores; a Table of speed,
+    rms_error, peak_to_peak_error (rad/s), dominant_frequency (Hz), lost_steps, carriage_speed
+    (m/s at a linear axis's carriage, NaN on a rotary one). `out=PREFIX` also writes PREFIX.csv and PREFIX.png.
     Options: actuator, settle, measure, threads, set, out, allow_coarse, quiet."""
     return Table(compute(sweep_args(model, speeds, **options), False)["table"])
 
@@ -284,7 +285,8 @@ def pullout_args(model, speeds, *, actuator=None, rate=None, max_torque=None, th
 
 def pullout(model, speeds, **options):
     """`mjstepper pullout`: the pull-out torque curve; a Table of speed (rad/s), torque (N·m,
-    rotor side), slipped_unloaded, held_max. Options: actuator, rate (N·m/s), max_torque (N·m),
+    rotor side), slipped_unloaded, held_max, and at a linear axis's carriage carriage_speed
+    (m/s) and force (N) (NaN on a rotary one). Options: actuator, rate (N·m/s), max_torque (N·m),
     threads, set, out, allow_coarse, quiet."""
     return Table(compute(pullout_args(model, speeds, **options), False)["table"])
 

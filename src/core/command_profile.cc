@@ -64,7 +64,9 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole,
     if (!rad_per_metre) {
       throw std::invalid_argument(fmt::format(
           "profile \"{}\": \"{}\" is in {}, a linear unit: it needs a stepper on a slide joint "
-          "or a tendon (θ = gear·x); on a hinge give rad, deg, rpm, r/min, rad/s or rad/s²",
+          "or a tendon (θ = gear·x), or on a hinge whose <config> declares its carriage "
+          "(pulley_teeth and belt_pitch, or lead); else give rad, deg, rpm, r/min, rad/s or "
+          "rad/s²",
           whole, t, unit));
     }
     // rad, rad/s, or rad/s² (a rate: a negative gear turns the motion, not the rate)
@@ -88,7 +90,8 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole,
   } else {
     throw std::invalid_argument(fmt::format(
         "profile \"{}\": \"{}\" needs a unit: rpm, r/min, rad/s, rad/s², rad, deg, s or ms (on "
-        "a slide joint or a tendon also m, mm, m/s, mm/s, m/s², mm/s²)",
+        "a slide joint, a tendon or a hinge with a declared carriage also m, mm, m/s, mm/s, m/s², "
+        "mm/s²)",
         whole, t));
   }
   const double bound = q.dim == Dim::kSpeed          ? kMaxProfileSpeed

@@ -15,9 +15,10 @@
 //   shaped(PROFILE, ei 40Hz 0.15)    zvd, ei, 2hump_ei, 3hump_ei), its frequency in Hz and
 //                                    optionally its damping ratio (default 0.1); nested shaped()
 //                                    puts two shapers in series (two modes)
-// On a linear axis (a stepper on a slide joint or a tendon: θ = gear·x) lengths, speeds and
+// On a linear axis (a stepper on a slide joint or a tendon: θ = gear·x; on a hinge whose config
+// declares its carriage, θ = gear·x/r with r the pulley's or screw's m per rad) lengths, speeds and
 // accelerations may be linear: m, mm, m/s, mm/s, m/s², mm/s² (also m/s^2, mm/s^2), converted to
-// the rotor's rad, rad/s, rad/s² with the transmission's gear (rad per metre): θ = gear·(v·unit).
+// the rotor's rad, rad/s, rad/s² with the rotor's rad per metre: θ = (rad per metre)·(v·unit).
 // A shaped profile is the convolution Σ A_i·P(t − T_i) of its angle, its speed and a step list's
 // count (rounded to whole steps); for profiles relative to t = 0 (speeds, step lists) less its
 // value at t = 0, so the angle stays relative to t = 0 (nothing to take away for those starting at
@@ -55,8 +56,9 @@ inline constexpr size_t kMaxNestedShapers = 4;
 class CommandProfile {
  public:
   /// Throws std::invalid_argument quoting the text and saying what is expected (and any number
-  /// beyond the bounds above). `rad_per_metre`: the transmission's gear on a linear axis (a slide
-  /// joint or a tendon), which converts linear units; none (a hinge) refuses them, naming the unit.
+  /// beyond the bounds above). `rad_per_metre`: the rotor's rad per metre of a linear axis (a slide
+  /// joint, a tendon, a hinge with a declared carriage), which converts linear units; none (any
+  /// other hinge) refuses them, naming the unit.
   static CommandProfile Parse(std::string_view text,
                               std::optional<double> rad_per_metre = std::nullopt);
 

@@ -1,7 +1,9 @@
 // The gear train between a rotor and its load (SPEC §12, "Gear trains"): its efficiency, which a
-// simulator applies to the torque the rotor hands the load. (Its Coulomb and viscous friction and
-// its own inertia are the joint's `frictionloss`, `damping` and `armature` in MJCF, which MuJoCo
-// treats as constraints and implicitly: models/README.md, "Gear trains".)
+// simulator applies to the torque the rotor hands the load, and the carriage a rotary joint may
+// move (a belt pulley or a lead screw), in whose units the tools speak (issue 32, item 3). (Its
+// Coulomb and viscous friction and its own inertia are the joint's `frictionloss`, `damping` and
+// `armature` in MJCF, which MuJoCo treats as constraints and implicitly: models/README.md, "Gear
+// trains".)
 //
 // A train of efficiency η_f passes η_f of the power that drives it forward (motor → load) and
 // η_b of the power that drives it back (load → motor). In rotor terms, with τ the rotor's torque
@@ -20,6 +22,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
+#include <string>
 
 namespace mjstepper {
 
@@ -30,8 +34,23 @@ inline constexpr double kEfficiencyBand = 1.0;
 struct Transmission {
   double efficiency = 1.0;            ///< η_f in (0, 1]: motor → load
   double backdrive_efficiency = 1.0;  ///< η_b in (0, 1]: load → motor
+  /// The carriage on a hinge joint, declared once: a timing-belt pulley of `pulley_teeth` teeth
+  /// on a belt of `belt_pitch` (m), or a lead screw of `lead` (m per turn). The carriage moves
+  /// TravelPerRevolution() per turn of the joint (Klipper's rotation_distance), x = q·travel/2π.
+  /// None set: a rotary load.
+  int pulley_teeth = 0;
+  double belt_pitch = 0;  ///< m, with pulley_teeth
+  double lead = 0;        ///< m per turn of the joint
 
   bool Lossless() const { return efficiency == 1.0 && backdrive_efficiency == 1.0; }
+
+  /// m the carriage moves per turn of the joint; 0 on a rotary load.
+  double TravelPerRevolution() const { return pulley_teeth > 0 ? pulley_teeth * belt_pitch : lead; }
+  /// m per rad of the joint (a pulley's pitch radius); 0 on a rotary load.
+  double MetresPerRadian() const { return TravelPerRevolution() / (2 * std::numbers::pi); }
+  /// What declares the carriage, for messages: "pulley_teeth = 20, belt_pitch = 0.002 m (40 mm per
+  /// turn)", "lead = 0.008 m (8 mm per turn)"; "" on a rotary load.
+  std::string CarriageText() const;
 
   /// The factor s on the rotor's torque τ (N·m) at rotor speed ω (rad/s): the torque the load
   /// receives is s·τ. Continuous in ω; 1 when lossless.

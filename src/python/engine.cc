@@ -54,7 +54,10 @@ const Column<SweepPoint> kSweepColumns[] = {
     {"dominant_frequency", "Hz", [](const SweepPoint& p) { return p.dominant_frequency; },
      [](SweepPoint& p, double v) { p.dominant_frequency = v; }},
     {"lost_steps", "full steps", [](const SweepPoint& p) { return p.lost_steps; },
-     [](SweepPoint& p, double v) { p.lost_steps = v; }}};
+     [](SweepPoint& p, double v) { p.lost_steps = v; }},
+    {"carriage_speed", "m/s (NaN: a rotary axis)",
+     [](const SweepPoint& p) { return p.carriage_speed; },
+     [](SweepPoint& p, double v) { p.carriage_speed = v; }}};
 
 const Column<PullOutPoint> kPullOutColumns[] = {
     {"speed", "rad/s", [](const PullOutPoint& p) { return p.speed; },
@@ -65,7 +68,12 @@ const Column<PullOutPoint> kPullOutColumns[] = {
      [](const PullOutPoint& p) { return p.slipped_unloaded ? 1.0 : 0.0; },
      [](PullOutPoint& p, double v) { p.slipped_unloaded = v != 0; }},
     {"held_max", "bool", [](const PullOutPoint& p) { return p.held_max ? 1.0 : 0.0; },
-     [](PullOutPoint& p, double v) { p.held_max = v != 0; }}};
+     [](PullOutPoint& p, double v) { p.held_max = v != 0; }},
+    {"carriage_speed", "m/s (NaN: a rotary axis)",
+     [](const PullOutPoint& p) { return p.carriage_speed; },
+     [](PullOutPoint& p, double v) { p.carriage_speed = v; }},
+    {"force", "N (NaN: a rotary axis)", [](const PullOutPoint& p) { return p.force; },
+     [](PullOutPoint& p, double v) { p.force = v; }}};
 
 const Column<StepperSummary> kSummaryColumns[] = {
     {"final_speed", "rad/s", [](const StepperSummary& s) { return s.final_speed; }, nullptr},
@@ -75,7 +83,11 @@ const Column<StepperSummary> kSummaryColumns[] = {
      nullptr},
     {"max_load_angle", "electrical rad", [](const StepperSummary& s) { return s.max_load_angle; },
      nullptr},
-    {"lost_steps", "full steps", [](const StepperSummary& s) { return s.lost_steps; }, nullptr}};
+    {"lost_steps", "full steps", [](const StepperSummary& s) { return s.lost_steps; }, nullptr},
+    {"carriage_speed", "m/s (NaN: a rotary axis)",
+     [](const StepperSummary& s) { return s.carriage_speed; }, nullptr},
+    {"carriage_position", "m (NaN: a rotary axis)",
+     [](const StepperSummary& s) { return s.carriage_position; }, nullptr}};
 
 const Column<DetentHarmonic> kHarmonicColumns[] = {
     {"order", "1", [](const DetentHarmonic& h) { return double(h.order); }, nullptr},
@@ -108,7 +120,9 @@ const Column<SizeJoint> kSizeColumns[] = {
     {"winding_temperature_steady", "°C",
      [](const SizeJoint& j) { return j.heat ? j.temperature_steady : NAN; }, nullptr},
     {"insulation_limit", "°C", [](const SizeJoint& j) { return j.heat ? j.insulation_limit : NAN; },
-     nullptr}};
+     nullptr},
+    {"rad_per_metre", "rotor rad per m of the carriage (NaN: a rotary joint)",
+     [](const SizeJoint& j) { return j.rad_per_metre != 0 ? j.rad_per_metre : NAN; }, nullptr}};
 
 // A column as Python's (name, unit, [values]).
 nb::tuple PyColumn(const char* name, const char* unit, nb::list values) {

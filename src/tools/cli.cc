@@ -133,7 +133,8 @@ CommandLine::CommandLine(bool out_optional)
       "ramp(A,B,T), trapezoid(V,Ta,Tc,Td), targets(A0,A1@T1,…) (angle targets for "
       "a drive's own profile), shaped(PROFILE, mzv 40Hz) (through an input shaper: zv, mzv, "
       "zvd, ei, 2hump_ei, 3hump_ei); units rpm, rad/s, rad/s², rad, deg, s (on "
-      "a slide or a tendon also m, mm, m/s, mm/s, m/s², mm/s²: θ = gear·x); speeds "
+      "a slide, a tendon or a hinge with pulley_teeth or lead also m, mm, m/s, mm/s, "
+      "m/s², mm/s² at the carriage); speeds "
       "within ±1e4 rad/s, angles ±1e7 rad, times 1e6 s; or steps(FILE), a "
       "STEP/DIR list (one step time in s per line, optionally +1/-1) for input=steps");
   run_->add_option("--klipper", c.run.klipper,
@@ -190,8 +191,9 @@ CommandLine::CommandLine(bool out_optional)
     int* threads = sub == pullout_ ? &c.pullout.threads : &so->threads;
     sub->add_option("model", *model, "MJCF model")->required()->transform(kModelFile);
     sub->add_option("--speeds", c.speeds_text,
-                    "from:to:step or a,b,c with a unit (rpm, r/min, rad/s): 10:200:2.5rpm; each "
-                    "within ±1e4 rad/s, at most 1e5 speeds")
+                    "from:to:step or a,b,c with a unit (rpm, r/min, rad/s at the rotor; mm/s, m/s "
+                    "at a linear axis's carriage): 10:200:2.5rpm; each within ±1e4 (SI), at "
+                    "most 1e5 speeds")
         ->required();
     sub->add_option("--actuator", *actuator, "the stepper (default: the only one)");
     sub->add_option("--out", c.out, "output prefix: writes PREFIX.csv and PREFIX.png")
@@ -484,7 +486,7 @@ void CommandLine::Check() {
   if (*sweep_ || *map_) {
     SweepOptions& so = *sweep_ ? c.sweep : c.map.sweep;
     c.kind = *sweep_ ? CommandKind::kSweep : CommandKind::kMap;
-    so.speeds = ParseSpeedList(c.speeds_text);
+    so.speeds = ParseSpeedList(c.speeds_text, "--speeds", &so.speeds_at_carriage);
     so.progress = !quiet_;
     so.allow_coarse = allow_coarse_;
     so.overrides = overrides;
@@ -518,7 +520,7 @@ void CommandLine::Check() {
   }
   if (*pullout_) {
     c.kind = CommandKind::kPullOut;
-    c.pullout.speeds = ParseSpeedList(c.speeds_text);
+    c.pullout.speeds = ParseSpeedList(c.speeds_text, "--speeds", &c.pullout.speeds_at_carriage);
     c.pullout.progress = !quiet_;
     c.pullout.allow_coarse = allow_coarse_;
     c.pullout.overrides = overrides;

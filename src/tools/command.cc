@@ -320,20 +320,28 @@ void PrintResult(const Command& c, const Result& result, double seconds) {
           const auto best = std::max_element(
               r.begin(), r.end(),
               [](const PullOutPoint& a, const PullOutPoint& b) { return a.torque < b.torque; });
+          const std::string carriage =
+              std::isfinite(best->force) ? fmt::format(" ({:.1f} N at {:.1f} mm/s at the carriage)",
+                                                       best->force, 1e3 * best->carriage_speed)
+                                         : "";
           fmt::print(
-              "{} speeds in {:.1f} s; highest pull-out torque {:.3f} N·m at {:.1f} r/min\n"
+              "{} speeds in {:.1f} s; highest pull-out torque {:.3f} N·m at {:.1f} r/min{}\n"
               "  wrote {}.csv\n  wrote {}.png\n",
-              r.size(), seconds, best->torque, RadPerSecToRpm(best->speed), c.out, c.out);
+              r.size(), seconds, best->torque, RadPerSecToRpm(best->speed), carriage, c.out, c.out);
         } else if constexpr (std::is_same_v<R, std::vector<SweepPoint>>) {
           const auto worst =
               std::max_element(r.begin(), r.end(), [](const SweepPoint& a, const SweepPoint& b) {
                 return a.peak_to_peak_error < b.peak_to_peak_error;
               });
+          const std::string carriage =
+              std::isfinite(worst->carriage_speed)
+                  ? fmt::format(", {:.1f} mm/s at the carriage", 1e3 * worst->carriage_speed)
+                  : "";
           fmt::print(
               "{} speeds in {:.1f} s; largest velocity ripple {:.2f} r/min peak-to-peak at {:.1f} "
-              "r/min ({:.1f} Hz)\n  wrote {}.csv\n  wrote {}.png\n",
+              "r/min ({:.1f} Hz{})\n  wrote {}.csv\n  wrote {}.png\n",
               r.size(), seconds, RadPerSecToRpm(worst->peak_to_peak_error),
-              RadPerSecToRpm(worst->speed), worst->dominant_frequency, c.out, c.out);
+              RadPerSecToRpm(worst->speed), worst->dominant_frequency, carriage, c.out, c.out);
         }
       },
       result);

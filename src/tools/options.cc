@@ -115,7 +115,8 @@ std::string Excerpt(const std::string& text) {
   return fmt::format("{}… ({} characters)", text.substr(0, kShown), text.size());
 }
 
-std::vector<double> ParseSpeedList(const std::string& text, const std::string& option) {
+std::vector<double> ParseSpeedList(const std::string& text, const std::string& option,
+                                   bool* at_carriage) {
   // Linear in the text (issue 33: each number's bound check formatted a message quoting the whole
   // list, so 1e5 speeds took minutes): messages quote a bounded excerpt, built only on failure,
   // and the list's length is bounded before any number is read.
@@ -124,10 +125,20 @@ std::vector<double> ParseSpeedList(const std::string& text, const std::string& o
   if (unit_at == 0 || unit_at > text.size()) unit_at = text.size();
   const std::string unit = text.substr(unit_at);
   const std::string_view body = std::string_view(text).substr(0, unit_at);
-  if (unit != "rpm" && unit != "r/min" && unit != "rad/s") {
-    throw std::invalid_argument(
-        fmt::format("{} {}: end with a unit: rpm, r/min or rad/s", option, shown));
+  const bool linear = unit == "mm/s" || unit == "m/s";
+  if (linear && at_carriage == nullptr) {
+    throw std::invalid_argument(fmt::format(
+        "{} {}: these speeds are the rotor's: end with rpm, r/min or rad/s", option, shown));
   }
+  if (unit != "rpm" && unit != "r/min" && unit != "rad/s" && !linear) {
+    throw std::invalid_argument(fmt::format(
+        "{} {}: end with a unit: rpm, r/min or rad/s{}", option, shown,
+        at_carriage != nullptr ? " (the rotor), or mm/s, m/s (a linear axis's carriage)" : ""));
+  }
+  if (at_carriage != nullptr) *at_carriage = linear;
+  const double si = unit == "rad/s" || unit == "m/s" ? 1.0
+                    : unit == "mm/s"                 ? 1e-3
+                                                     : RpmToRadPerSec(1.0);
   const OptionRange& bound = Range("speed");
   auto speed = [&](std::string_view number) {
     double v = 0;
@@ -135,7 +146,7 @@ std::vector<double> ParseSpeedList(const std::string& text, const std::string& o
       throw std::invalid_argument(fmt::format("{} {}: \"{}\" is not a finite number", option, shown,
                                               Excerpt(std::string(number))));
     }
-    v = unit == "rad/s" ? v : RpmToRadPerSec(v);
+    v *= si;
     if (!(v >= bound.lo && v <= bound.hi)) {
       RequireInRange(option, bound, v, fmt::format("{} ({}{})", shown, number, unit));
     }
@@ -215,7 +226,7 @@ std::string OptionRangeTableMarkdown() {
 
 std::vector<double> ParseJointValues(const std::string& option, const std::string& text,
                                      JointQuantity quantity, std::optional<bool> linear,
-                                     bool single) {
+                                     bool single, bool* was_linear) {
   auto bad = [&](const std::string& why) {
     return std::invalid_argument(
         fmt::format("{}{}{}: {}", option, option.ends_with('=') ? "" : " ", text, why));
@@ -244,7 +255,10 @@ std::vector<double> ParseJointValues(const std::string& option, const std::strin
     }
     if (units[i] == nullptr || (linear && units[i]->linear != *linear)) {
       throw bad(fmt::format("\"{}\": the unit must be one of {}{}", item, UnitsOf(quantity),
-                            linear ? (*linear ? "; this is a slide" : "; this is a hinge") : ""));
+                            linear ? (*linear ? "; this is a slide"
+                                              : "; this is a hinge (for mm, declare its carriage: "
+                                                "pulley_teeth or lead)")
+                                   : ""));
     }
   }
   if (units.back() == nullptr) {
@@ -267,6 +281,7 @@ std::vector<double> ParseJointValues(const std::string& option, const std::strin
       throw bad(fmt::format("\"{}\": a rate must be > 0", items[i]));
     }
   }
+  if (was_linear != nullptr) *was_linear = last->linear;
   return out;
 }
 

@@ -38,14 +38,18 @@ inline constexpr double kMaxRuns = 1e5;
 /// out of a handful of samples.
 inline constexpr int kMinMeasuredSteps = 100;
 
-/// "10:200:2.5rpm" (from:to:step, inclusive), "50,100,150rpm", or one speed; units rpm, r/min,
-/// rad/s. Every speed within Range("speed") and at most kMaxRuns of them. Throws
-/// std::invalid_argument naming `option` and quoting the text.
 /// `text` as a message quotes it: whole up to 60 characters, else its first 60 and its length
 /// (issue 33: a message echoed a 100 MB argument).
 std::string Excerpt(const std::string& text);
 
-std::vector<double> ParseSpeedList(const std::string& text, const std::string& option = "--speeds");
+/// "10:200:2.5rpm" (from:to:step, inclusive), "50,100,150rpm", or one speed; units rpm, r/min,
+/// rad/s. Every speed within Range("speed") and at most kMaxRuns of them. Throws
+/// std::invalid_argument naming `option` and quoting the text.
+/// With `at_carriage`, speeds may also be in mm/s or m/s (a linear axis's carriage, converted
+/// with the stepper's rad per metre once its model is loaded): returned in m/s, and
+/// *at_carriage says which.
+std::vector<double> ParseSpeedList(const std::string& text, const std::string& option = "--speeds",
+                                   bool* at_carriage = nullptr);
 
 /// "WxH", two decimal integers each within Range("size"); throws naming --size.
 void ParseSize(const std::string& text, int* width, int* height);
@@ -63,9 +67,10 @@ enum class JointQuantity { kPosition, kSpeed, kAcceleration };
 /// mm/s, m/s; deg/s², rad/s², mm/s², m/s² (also ^2). Every value finite and within ±1e7 (positions)
 /// or ±1e4 per s (rates); `single`: exactly one value. Throws std::invalid_argument naming
 /// `option`.
+/// `was_linear`, when given, tells which the values were (they are one or the other).
 std::vector<double> ParseJointValues(const std::string& option, const std::string& text,
                                      JointQuantity quantity, std::optional<bool> linear,
-                                     bool single);
+                                     bool single, bool* was_linear = nullptr);
 
 /// The Markdown table of kOptionRanges for the README (`mjstepper tables`).
 std::string OptionRangeTableMarkdown();

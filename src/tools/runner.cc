@@ -273,11 +273,20 @@ RunResult Run(const RunOptions& given, std::ostream& progress) {
   }
 
   std::optional<CsvWriter> csv;
+  std::vector<std::optional<Carriage>> carriages;  // per stepper: a linear axis's, for the log
+  for (const StepperActuator& s : sm.steppers) carriages.push_back(CarriageOf(m, s));
   if (!options.log.empty()) {
     std::vector<std::string> header = {"time[s]"};
-    for (const StepperActuator& s : sm.steppers) {
+    for (size_t i = 0; i < sm.steppers.size(); ++i) {
+      const StepperActuator& s = sm.steppers[i];
       header.push_back(s.name + ":theta[rad]");
       header.push_back(s.name + ":velocity_error[rad/s]");  // (omega is a signal)
+      if (carriages[i]) {  // in the units the user thinks in (README, "Linear axes")
+        for (const char* column :
+             {":carriage_position[mm]", ":carriage_speed[mm/s]", ":carriage_force[N]"}) {
+          header.push_back(s.name + column);
+        }
+      }
       for (const SignalInfo& info : SignalTable()) {
         header.push_back(fmt::format("{}:{}[{}]", s.name, info.name, info.unit));
       }
@@ -364,6 +373,10 @@ RunResult Run(const RunOptions& given, std::ostream& progress) {
       sum.max_load_angle = std::max(sum.max_load_angle, std::abs(signals[kLoadAngle]));
       sum.lost_steps = signals[kLostSteps] + 0.0;  // + 0.0: no "-0" in the summary
       sum.final_speed = omega;
+      if (const std::optional<Carriage>& c = carriages[i]) {
+        sum.carriage_speed = c->Speed(d, s);
+        sum.carriage_position = c->Position(d, s);
+      }
       samples[i] = {.omega_cmd = omega_cmd,
                     .velocity_error = error,
                     .current_a = signals[kCurrentA],
@@ -392,6 +405,11 @@ RunResult Run(const RunOptions& given, std::ostream& progress) {
       }
       if (csv) {
         row.insert(row.end(), {d->actuator_length[s.outadr], error});
+        if (const std::optional<Carriage>& c = carriages[i]) {
+          static const int kTorqueTotal = SignalIndex("torque_total");
+          row.insert(row.end(), {1e3 * c->Position(d, s), 1e3 * c->Speed(d, s),
+                                 c->Force(signals[kTorqueTotal])});
+        }
         row.insert(row.end(), signals, signals + kNumSignals);
       }
     }
@@ -436,6 +454,10 @@ void PrintSummary(const RunResult& r, const std::string& log, std::ostream& out)
                s.name, s.profile, RadPerSecToRpm(s.final_speed),
                RadPerSecToRpm(s.rms_velocity_error), RadPerSecToRpm(s.max_velocity_error),
                s.max_load_angle, s.lost_steps);
+    if (std::isfinite(s.carriage_speed)) {
+      fmt::print(out, "    carriage: final speed {:.2f} mm/s at {:.3f} mm\n",
+                 1e3 * s.carriage_speed, 1e3 * s.carriage_position);
+    }
   }
   if (!log.empty()) fmt::print(out, "  log: {}\n", log);
   if (r.frames > 0) fmt::print(out, "  rendered {} frames\n", r.frames);

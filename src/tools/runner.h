@@ -2,6 +2,7 @@
 #ifndef MJSTEPPER_TOOLS_RUNNER_H_
 #define MJSTEPPER_TOOLS_RUNNER_H_
 
+#include <cmath>
 #include <iosfwd>
 #include <map>
 #include <string>
@@ -78,6 +79,9 @@ struct StepperSummary {
   double max_velocity_error = 0;  ///< rad/s, max |ω − ωcmd|
   double max_load_angle = 0;      ///< electrical rad, max |δ|
   double lost_steps = 0;          ///< full steps slipped at the end
+  /// A linear axis's carriage at the last step's start (README, "Linear axes"): m/s and m; NaN
+  /// on a rotary one.
+  double carriage_speed = NAN, carriage_position = NAN;
 };
 
 struct RunResult {

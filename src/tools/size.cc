@@ -9,6 +9,7 @@
 #include <limits>
 #include <optional>
 #include <ostream>
+#include <span>
 #include <stdexcept>
 
 #include "config.h"
@@ -87,6 +88,25 @@ std::string XmlEscape(const std::string& text) {
 // The pull-out bench of a stepper: its <config> with the motion profile off, on a free rotor of
 // rotor-side inertia `inertia` (kg·m²) and the actuator's damping, no gravity, at a timestep that
 // resolves its holding resonance (ω·h <= 0.1, and no coarser than the drive's interrupt period).
+// A joint's --move, --speed or --accel values in its own SI unit (rad or m and their rates): a
+// slide or a tendon takes lengths, a hinge angles, and a hinge with a declared carriage (a
+// pulley or lead screw, README "Linear axes") either, lengths at the carriage turned into the
+// joint's angle, q = x/r.
+std::vector<double> JointValues(const mjModel* m, const StepperActuator& s,
+                                const std::string& option, const std::string& text,
+                                JointQuantity quantity, bool single) {
+  const double radius = s.config.transmission.MetresPerRadian();  // m/rad, 0: none
+  const bool hinge = !RadPerMetre(m, s).has_value() || radius > 0;
+  bool linear = false;
+  std::vector<double> values =
+      ParseJointValues(option, text, quantity,
+                       radius > 0 ? std::nullopt : std::optional<bool>(!hinge), single, &linear);
+  if (radius > 0 && linear) {
+    for (double& v : values) v /= radius;
+  }
+  return values;
+}
+
 std::string BenchModel(const mjModel* m, const StepperActuator& s, double inertia) {
   const StepperResolution r = Resolution(m, s);
   const double omega = std::sqrt((r.stiffness + r.detent_stiffness) / inertia);  // rad/s
@@ -102,7 +122,11 @@ std::string BenchModel(const mjModel* m, const StepperActuator& s, double inerti
   std::string config;
   for (const char* key : plugin::AttributeNames()) {
     const std::string name = key;
-    if (name.starts_with("profile") || name == "gauge") continue;
+    // The bench is a bare rotor: its carriage (a linear joint's) is the sized joint's, in Size.
+    if (name.starts_with("profile") || name == "gauge" || name == "pulley_teeth" ||
+        name == "belt_pitch" || name == "lead") {
+      continue;
+    }
     const std::string value = ConfigText(m, s, key);
     if (!value.empty()) {
       config += fmt::format("      <config key=\"{}\" value=\"{}\"/>\n", name, XmlEscape(value));
@@ -163,6 +187,19 @@ double Margin(double torque, double pullout) {
 // follow its drive's plan exactly: the steppers' joints on their plans (MotionProfile, fed each
 // step's ctrl as the drive is), every other dof held at `start`'s pose, through mj_inverse;
 // qfrc_inverse/gear. Empty for a stepper that is not on a hinge or slide joint.
+// Whether `joint` is in a fixed tendon with a spring (a compliant belt, models/belt_axis.xml): the
+// far end's dofs are not on any plan, and held at the start pose they would stretch the belt by
+// the whole move, so such a joint's demand is the simulated motor torque, as a tendon's.
+bool WindsSpring(const mjModel* m, int joint) {
+  for (int t = 0; t < m->ntendon; ++t) {
+    if (!(m->tendon_stiffness[t] > 0)) continue;
+    for (int w = m->tendon_adr[t]; w < m->tendon_adr[t] + m->tendon_num[t]; ++w) {
+      if (m->wrap_type[w] == mjWRAP_JOINT && m->wrap_objid[w] == joint) return true;
+    }
+  }
+  return false;
+}
+
 std::vector<std::vector<double>> InverseDynamicsDemand(const mjModel* m,
                                                        const std::vector<StepperActuator>& steppers,
                                                        const RunOptions& run, const mjData* start,
@@ -187,7 +224,8 @@ std::vector<std::vector<double>> InverseDynamicsDemand(const mjModel* m,
     const int type = m->actuator_trntype[s.actuator];
     const int joint = m->actuator_trnid[2 * s.actuator];
     if (type != mjTRN_JOINT ||
-        (m->jnt_type[joint] != mjJNT_HINGE && m->jnt_type[joint] != mjJNT_SLIDE)) {
+        (m->jnt_type[joint] != mjJNT_HINGE && m->jnt_type[joint] != mjJNT_SLIDE) ||
+        WindsSpring(m, joint)) {
       continue;
     }
     Axis& a = axes[i];
@@ -291,8 +329,8 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
   for (const auto& [name, text] : o.moves) {
     const StepperActuator& s = FindStepper(user, name, "--move", text);
     const size_t i = &s - user.steppers.data();
-    waypoints[i] = ParseJointValues("--move " + name + "=", text, JointQuantity::kPosition,
-                                    RadPerMetre(m0, s).has_value(), false);
+    waypoints[i] =
+        JointValues(m0, s, "--move " + name + "=", text, JointQuantity::kPosition, false);
     if (poses != 0 && waypoints[i].size() != poses) {
       throw std::invalid_argument(fmt::format(
           "--move {}={}: {} waypoints, but the other joints have {}: one value per pose", name,
@@ -307,9 +345,8 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
     for (const auto& [name, text] : *rates) {
       const StepperActuator& s = FindStepper(user, name, option, text);
       const double value =
-          ParseJointValues(fmt::format("{} {}=", option, name), text,
-                           speed ? JointQuantity::kSpeed : JointQuantity::kAcceleration,
-                           RadPerMetre(m0, s).has_value(), true)[0];
+          JointValues(m0, s, fmt::format("{} {}=", option, name), text,
+                      speed ? JointQuantity::kSpeed : JointQuantity::kAcceleration, true)[0];
       for (const StepperActuator& other : user.steppers) {
         if (&other != &s &&
             m0->actuator_plugin[other.actuator] == m0->actuator_plugin[s.actuator]) {
@@ -432,6 +469,7 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
     if (j.motor.empty()) j.motor = "tsui2009";
     j.drive = ControllerName(s.config.controller);
     j.gear = Gear(m, s);
+    j.rad_per_metre = RadPerMetre(m, s).value_or(0.0);
     std::vector<double> omega(trace.time.size());
     for (size_t k = 0; k < omega.size(); ++k) {
       omega[k] = trace.omega_cmd[k] + trace.velocity_error[k];
@@ -478,6 +516,11 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
     po.progress = o.run.progress;
     if (o.run.progress) fmt::print(progress, "size: pull-out of '{}' on its bench\n", s.name);
     j.pullout = PullOut(po, progress);
+    for (PullOutPoint& p : j.pullout) {  // the bench is a bare rotor: the joint's carriage
+      if (j.rad_per_metre == 0) continue;
+      p.carriage_speed = p.speed / j.rad_per_metre;
+      p.force = p.torque * std::abs(j.rad_per_metre);
+    }
 
     j.margin = std::numeric_limits<double>::infinity();
     for (size_t k = 0; k < j.time.size(); ++k) {
@@ -530,30 +573,45 @@ void WriteSizeCsvs(const std::string& prefix, const SizeResult& r) {
         "peak_torque[N·m],worst_time[s],worst_speed[rad/s],worst_torque[N·m],"
         "worst_pullout[N·m],margin[1],lost_steps[full steps],current_squared[A²],"
         "winding_temperature_cycle[°C],winding_temperature_cycles[°C],"
-        "winding_temperature_steady[°C],insulation_limit[°C],cycles[1],cycle_time[s]\n";
+        "winding_temperature_steady[°C],insulation_limit[°C],cycles[1],cycle_time[s],"
+        "rad_per_metre[rad/m]\n";
     for (const SizeJoint& j : r.joints) {
       text += fmt::format(
           "{},{},{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},"
-          "{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{},{:.17g}\n",
+          "{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{},{:.17g},{:.17g}\n",
           CsvText(j.name), CsvText(j.motor), CsvText(j.drive), j.gear, j.bench_inertia,
           j.peak_speed, j.peak_torque, j.worst_time, j.worst_speed, j.worst_torque, j.worst_pullout,
           j.margin, j.lost_steps + 0.0, j.current_squared, j.heat ? j.temperature_cycle : NAN,
           j.heat ? j.temperature : NAN, j.heat ? j.temperature_steady : NAN,
-          j.heat ? j.insulation_limit : NAN, r.cycles, r.cycle_time);
+          j.heat ? j.insulation_limit : NAN, r.cycles, r.cycle_time,
+          j.rad_per_metre != 0 ? j.rad_per_metre : NAN);
     }
     out.Write(text.data(), text.size());
     out.Commit();
   }
   for (const SizeJoint& j : r.joints) {
     const std::vector<std::string> files = SizeJointOutputs(prefix, j.name);
-    CsvWriter demand(files[0], {"time[s]", "speed[rad/s]", "torque[N·m]", "pullout[N·m]",
-                                "margin[1]", "motor_speed[rad/s]", "motor_torque[N·m]"});
+    std::vector<std::string> header = {"time[s]",          "speed[rad/s]", "torque[N·m]",
+                                       "pullout[N·m]",     "margin[1]",    "motor_speed[rad/s]",
+                                       "motor_torque[N·m]"};
+    const double k_rpm = j.rad_per_metre;  // rotor rad per m of the carriage; 0: rotary
+    if (k_rpm != 0) {
+      header.insert(header.end(), {"carriage_speed[mm/s]", "force[N]", "pullout_force[N]"});
+    }
+    CsvWriter demand(files[0], header);
     for (size_t k = 0; k < j.time.size(); ++k) {
       const double pullout = PullOutAt(j.pullout, j.speed[k]);
-      const double row[] = {
-          j.time[k],        j.speed[k],       j.torque[k], pullout, Margin(j.torque[k], pullout),
-          j.motor_speed[k], j.motor_torque[k]};
-      demand.Row(row);
+      const double row[] = {j.time[k],
+                            j.speed[k],
+                            j.torque[k],
+                            pullout,
+                            Margin(j.torque[k], pullout),
+                            j.motor_speed[k],
+                            j.motor_torque[k],
+                            k_rpm != 0 ? 1e3 * j.speed[k] / k_rpm : 0.0,
+                            j.torque[k] * std::abs(k_rpm),
+                            pullout * std::abs(k_rpm)};
+      demand.Row(std::span<const double>(row, k_rpm != 0 ? 10 : 7));
     }
     demand.Commit();
     WritePullOutCsv(files[1], j.pullout);
@@ -584,6 +642,14 @@ void PrintSizeTable(const SizeResult& r, std::ostream& out) {
                j.name, j.motor, j.gear, RadPerSecToRpm(j.peak_speed), j.peak_torque,
                RadPerSecToRpm(std::abs(j.worst_speed)), std::abs(j.worst_torque), j.worst_pullout,
                100 * j.margin, j.lost_steps, heat);
+    if (j.rad_per_metre != 0) {                    // a linear axis: the same at its carriage
+      const double k = std::abs(j.rad_per_metre);  // rotor rad per m
+      fmt::print(out,
+                 "  {:<10} at the carriage: top {:.1f} mm/s, peak {:.1f} N; at the worst point "
+                 "{:.1f} mm/s, {:.1f} N of {:.1f} N\n",
+                 "", 1e3 * j.peak_speed / k, j.peak_torque * k, 1e3 * std::abs(j.worst_speed) / k,
+                 std::abs(j.worst_torque) * k, j.worst_pullout * k);
+    }
   }
 }
 

@@ -22,7 +22,8 @@
 //  4. with the heat model, carries the cycle's copper loss over N cycles (RiseUnderCurrent: the
 //     cycle's mean ia² + ib², R(T_w) updated every cycle) and gives the winding's temperature
 //     after them and in continuous duty, beside the insulation class's limit.
-// Torques and speeds are rotor-side (the motor's own); the gear is in the table.
+// Torques and speeds are rotor-side (the motor's own); the gear is in the table. On a linear axis
+// (README, "Linear axes") the table and the CSVs give them at the carriage too, in mm/s and N.
 #ifndef MJSTEPPER_TOOLS_SIZE_H_
 #define MJSTEPPER_TOOLS_SIZE_H_
 
@@ -65,10 +66,13 @@ struct SizeOptions {
 };
 
 struct SizeJoint {
-  std::string name;                   ///< actuator
-  std::string motor;                  ///< the `motor` attribute
-  std::string drive;                  ///< the controller's name
-  double gear = 1;                    ///< rotor angle per joint unit
+  std::string name;   ///< actuator
+  std::string motor;  ///< the `motor` attribute
+  std::string drive;  ///< the controller's name
+  double gear = 1;    ///< rotor angle per joint unit
+  /// A linear axis's rotor rad per m of its carriage (RadPerMetre), in whose units the table adds
+  /// a line and the CSVs columns (mm/s, N: README, "Linear axes"); 0 on a rotary joint.
+  double rad_per_metre = 0;
   std::vector<double> time;           ///< s, each step's start
   std::vector<double> speed;          ///< rad/s, the drive's commanded speed (rotor side)
   std::vector<double> torque;         ///< N·m, the demand: the torque the plan needs (rotor side)

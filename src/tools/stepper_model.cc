@@ -17,6 +17,7 @@
 #include <variant>
 #include <vector>
 
+#include "carriage.h"
 #include "config.h"
 #include "core/averaged_bridge.h"
 #include "core/substep.h"
@@ -248,7 +249,30 @@ std::optional<double> RadPerMetre(const mjModel* m, const StepperActuator& s) {
       (m->actuator_trntype[s.actuator] == mjTRN_JOINT && m->jnt_type[target] == mjJNT_SLIDE)) {
     return Gear(m, s);
   }
+  const double radius = s.config.transmission.MetresPerRadian();  // m per rad of the hinge
+  if (radius > 0) return Gear(m, s) / radius;
   return std::nullopt;
+}
+
+std::optional<Carriage> CarriageOf(const mjModel* m, const StepperActuator& s) {
+  const std::optional<double> rad_per_metre = RadPerMetre(m, s);
+  if (!rad_per_metre) return std::nullopt;
+  Carriage c{.rad_per_metre = *rad_per_metre, .gear = Gear(m, s)};
+  if (s.config.transmission.MetresPerRadian() == 0) return c;  // a slide or a tendon
+  const plugin::Belt belt = plugin::BeltOf(m, m->actuator_trnid[2 * s.actuator]);
+  c.belt = belt.tendon;
+  c.belt_coef = belt.coef;
+  return c;
+}
+
+double Carriage::Position(const mjData* d, const StepperActuator& s) const {
+  const double rotor = d->actuator_length[s.outadr];  // rad
+  return belt < 0 ? rotor / rad_per_metre : d->ten_length[belt] - belt_coef * rotor / gear;
+}
+
+double Carriage::Speed(const mjData* d, const StepperActuator& s) const {
+  const double rotor = d->actuator_velocity[s.outadr];  // rad/s
+  return belt < 0 ? rotor / rad_per_metre : d->ten_velocity[belt] - belt_coef * rotor / gear;
 }
 
 std::string TransmissionTarget(const mjModel* m, const StepperActuator& s) {

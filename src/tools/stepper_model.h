@@ -35,9 +35,33 @@ inline double Gear(const mjModel* m, const StepperActuator& s) {
   return m->actuator_gear[6 * s.outadr];
 }
 
-/// A linear axis's rad per metre for profiles in m, mm, m/s, … (θ = gear·x): the gear of a stepper
-/// on a slide joint or a tendon; none on a hinge, whose profiles are rotor angles only.
+/// A linear axis's rotor rad per metre of its carriage, for profiles in m, mm, m/s, … and the
+/// carriage's columns: the gear of a stepper on a slide joint or a tendon (θ = gear·x), gear/r on a
+/// hinge whose <config> declares its carriage (a pulley or lead screw of r m per rad,
+/// core/transmission.h); none on any other hinge, whose profiles are rotor angles only.
 std::optional<double> RadPerMetre(const mjModel* m, const StepperActuator& s);
+
+/// A linear stepper's carriage, as the log shows it (issue 32, item 3): its position and speed
+/// from the step-start quantities MuJoCo leaves after mj_step (actuator_length, ten_length), and
+/// the motor's force on it.
+struct Carriage {
+  double rad_per_metre = 0;  ///< the rotor's rad per m of the carriage (RadPerMetre)
+  /// A hinge with a declared pulley that winds a fixed tendon with a slide joint in it (a belt
+  /// written into the model, models/belt_axis.xml): the carriage is the belt's far end, the
+  /// tendon's length less the hinge's share, Σ coef·q over its other joints (CoreXY's belt A:
+  /// x + y). -1: the carriage is the rotor's travel, actuator_length / rad_per_metre.
+  int belt = -1;
+  double belt_coef = 0;  ///< the belt's coefficient on the hinge, m per rad of the joint
+  double gear = 1;       ///< rotor rad per rad of the joint
+
+  double Position(const mjData* d, const StepperActuator& s) const;  ///< m
+  double Speed(const mjData* d, const StepperActuator& s) const;     ///< m/s
+  /// N: a rotor torque τ (N·m) at the carriage, τ·rad_per_metre (the gear train's losses aside).
+  double Force(double torque) const { return torque * rad_per_metre; }
+};
+
+/// The stepper's carriage when it drives a linear axis (RadPerMetre), else none.
+std::optional<Carriage> CarriageOf(const mjModel* m, const StepperActuator& s);
 
 /// What the stepper drives, for messages: "hinge joint 'shaft'", "tendon 'belt'".
 std::string TransmissionTarget(const mjModel* m, const StepperActuator& s);

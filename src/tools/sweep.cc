@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <fmt/ostream.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <atomic>
@@ -15,6 +16,7 @@
 #include <mutex>
 #include <numbers>
 #include <ostream>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -211,6 +213,38 @@ void ParallelFor(size_t n, int threads, bool show_progress, const char* what,
   }
 }
 
+// The rotor's speeds (rad/s) for a list given at the rotor or, `at_carriage`, in m/s at the
+// stepper's carriage (README, "Linear axes"), each within Range("speed") at the rotor.
+std::vector<double> RotorSpeeds(const mjModel* m, const StepperActuator& s,
+                                const std::vector<double>& speeds, bool at_carriage) {
+  if (!at_carriage) return speeds;
+  const std::optional<double> rad_per_metre = RadPerMetre(m, s);
+  if (!rad_per_metre) {
+    throw std::invalid_argument(fmt::format(
+        "--speeds in mm/s or m/s: stepper '{}' drives {}, which has no carriage; declare its "
+        "pulley (pulley_teeth, belt_pitch) or lead screw (lead) in its <config>, or give the "
+        "speeds at the rotor (rpm, r/min, rad/s)",
+        s.name, TransmissionTarget(m, s)));
+  }
+  std::vector<double> rotor(speeds.size());
+  for (size_t i = 0; i < speeds.size(); ++i) {
+    rotor[i] = speeds[i] * *rad_per_metre;
+    RequireInRange("--speeds", Range("speed"), rotor[i],
+                   fmt::format("{:g} mm/s is {:g} rad/s at the rotor", 1e3 * speeds[i], rotor[i]));
+  }
+  return rotor;
+}
+
+// A point's carriage columns on a linear axis (its commanded speed and, for a pull-out, the
+// force at the carriage); left NaN on a rotary one.
+template <class Point>
+void AtCarriage(const mjModel* m, const StepperActuator& s, Point* p) {
+  const std::optional<double> rad_per_metre = RadPerMetre(m, s);
+  if (!rad_per_metre) return;
+  p->carriage_speed = p->speed / *rad_per_metre;
+  if constexpr (requires { p->force; }) p->force = p->torque * std::abs(*rad_per_metre);
+}
+
 // run(model, stepper, speed, options) for each of the options' speeds, on all cores.
 template <class Point, class Options, class Run, class Check>
 std::vector<Point> OverSpeeds(const Options& o, const char* what, std::ostream& progress, Run run,
@@ -227,9 +261,13 @@ std::vector<Point> OverSpeeds(const Options& o, const char* what, std::ostream& 
   if (judge) ApplyTimestepRule(sm, -1, o.model, o.allow_coarse, progress);
   check(sm.model.get());
   const StepperActuator& target = FindTarget(sm, o.actuator, o.model);
-  std::vector<Point> points(o.speeds.size());
-  ParallelFor(o.speeds.size(), o.threads, o.progress, what, progress,
-              [&](size_t i) { points[i] = run(sm.model.get(), target, o.speeds[i], o); });
+  const std::vector<double> speeds =
+      RotorSpeeds(sm.model.get(), target, o.speeds, o.speeds_at_carriage);
+  std::vector<Point> points(speeds.size());
+  ParallelFor(speeds.size(), o.threads, o.progress, what, progress, [&](size_t i) {
+    points[i] = run(sm.model.get(), target, speeds[i], o);
+    AtCarriage(sm.model.get(), target, &points[i]);
+  });
   return points;
 }
 
@@ -281,15 +319,31 @@ std::vector<PullOutPoint> PullOut(const PullOutOptions& o, std::ostream& progres
   return OverSpeeds<PullOutPoint>(o, "pullout", progress, RunPullOut, [](const mjModel*) {});
 }
 
+namespace {
+
+// Whether a result is a linear axis's: its points carry the carriage's speed (AtCarriage).
+template <class Point>
+bool Linear(const std::vector<Point>& points) {
+  return !points.empty() && std::isfinite(points.front().carriage_speed);
+}
+
+}  // namespace
+
 void WritePullOutCsv(const std::string& path, const std::vector<PullOutPoint>& points) {
-  CsvWriter csv(path,
-                {"speed[r/min]", "speed[rad/s]", "pull_out_torque[N·m]", "slipped_before_load[1/0]",
-                 "held_max_torque[1/0]"},
-                17);  // every digit, as the sweep's
+  std::vector<std::string> header = {"speed[r/min]", "speed[rad/s]", "pull_out_torque[N·m]",
+                                     "slipped_before_load[1/0]", "held_max_torque[1/0]"};
+  const bool linear = Linear(points);
+  if (linear) header.insert(header.end(), {"carriage_speed[mm/s]", "pull_out_force[N]"});
+  CsvWriter csv(path, header, 17);  // every digit, as the sweep's
   for (const PullOutPoint& p : points) {
-    const double row[] = {RadPerSecToRpm(p.speed), p.speed, p.torque,
-                          p.slipped_unloaded ? 1.0 : 0.0, p.held_max ? 1.0 : 0.0};
-    csv.Row(row);
+    const double row[] = {RadPerSecToRpm(p.speed),
+                          p.speed,
+                          p.torque,
+                          p.slipped_unloaded ? 1.0 : 0.0,
+                          p.held_max ? 1.0 : 0.0,
+                          1e3 * p.carriage_speed,
+                          p.force};
+    csv.Row(std::span<const double>(row, linear ? 7 : 5));
   }
   csv.Commit();
 }
@@ -334,52 +388,67 @@ std::vector<MapPoint> Map(const MapOptions& o, std::ostream& progress) {
   const StepperActuator& target = FindTarget(sm, s.actuator, s.model);
   std::vector<ModelPtr> models;
   for (double value : o.values) models.push_back(WithParameter(sm.model.get(), o.parameter, value));
-  const size_t n = s.speeds.size();
+  const std::vector<double> speeds =
+      RotorSpeeds(sm.model.get(), target, s.speeds, s.speeds_at_carriage);
+  const size_t n = speeds.size();
   std::vector<MapPoint> points(o.values.size() * n);
   ParallelFor(points.size(), s.threads, s.progress, "map", progress, [&](size_t i) {
     points[i] = {.value = o.values[i / n],
-                 .point = RunOne(models[i / n].get(), target, s.speeds[i % n], s)};
+                 .point = RunOne(models[i / n].get(), target, speeds[i % n], s)};
+    AtCarriage(sm.model.get(), target, &points[i].point);
   });
   return points;
 }
 
-void WriteMapCsv(const std::string& path, const std::string& parameter,
-                 const std::vector<MapPoint>& points) {
-  CsvWriter csv(
-      path,
-      {parameter, "speed[r/min]", "speed[rad/s]", "velocity_error_rms[r/min]",
-       "velocity_error_peak_to_peak[r/min]", "dominant_frequency[Hz]", "lost_steps[full steps]"},
-      17);  // every digit, as the sweep's
-  for (const MapPoint& m : points) {
-    const SweepPoint& p = m.point;
-    const double row[] = {m.value,
-                          RadPerSecToRpm(p.speed),
-                          p.speed,
-                          RadPerSecToRpm(p.rms_error),
-                          RadPerSecToRpm(p.peak_to_peak_error),
-                          p.dominant_frequency,
-                          p.lost_steps};
-    csv.Row(row);
-  }
-  csv.Commit();
-}
-
 namespace {
+
 const char* const kSweepHeader[] = {"speed[r/min]",
                                     "speed[rad/s]",
                                     "velocity_error_rms[r/min]",
                                     "velocity_error_peak_to_peak[r/min]",
                                     "dominant_frequency[Hz]",
                                     "lost_steps[full steps]"};
+const char* const kCarriageSpeedHeader = "carriage_speed[mm/s]";  // a linear axis's only
+
+// A sweep point's columns, after `row`'s first `keep` (the carriage's speed on a linear axis).
+void SweepRow(const SweepPoint& p, bool linear, size_t keep, std::vector<double>* row) {
+  row->resize(keep);
+  row->insert(row->end(),
+              {RadPerSecToRpm(p.speed), p.speed, RadPerSecToRpm(p.rms_error),
+               RadPerSecToRpm(p.peak_to_peak_error), p.dominant_frequency, p.lost_steps});
+  if (linear) row->push_back(1e3 * p.carriage_speed);
+}
+
+std::vector<std::string> SweepHeader(bool linear) {
+  std::vector<std::string> header(std::begin(kSweepHeader), std::end(kSweepHeader));
+  if (linear) header.push_back(kCarriageSpeedHeader);
+  return header;
+}
+
 }  // namespace
+
+void WriteMapCsv(const std::string& path, const std::string& parameter,
+                 const std::vector<MapPoint>& points) {
+  const bool linear = !points.empty() && std::isfinite(points.front().point.carriage_speed);
+  std::vector<std::string> header = SweepHeader(linear);
+  header.insert(header.begin(), parameter);
+  CsvWriter csv(path, header, 17);  // every digit, as the sweep's
+  std::vector<double> row;
+  for (const MapPoint& m : points) {
+    row.assign(1, m.value);
+    SweepRow(m.point, linear, 1, &row);
+    csv.Row(row);
+  }
+  csv.Commit();
+}
 
 void WriteSweepCsv(const std::string& path, const std::vector<SweepPoint>& points) {
   // Every digit (a few rows): the Python package's Ray sweep is checked against it to 1e-12.
-  CsvWriter csv(path, {std::begin(kSweepHeader), std::end(kSweepHeader)}, 17);
+  const bool linear = Linear(points);
+  CsvWriter csv(path, SweepHeader(linear), 17);
+  std::vector<double> row;
   for (const SweepPoint& p : points) {
-    const double row[] = {RadPerSecToRpm(p.speed),     p.speed,
-                          RadPerSecToRpm(p.rms_error), RadPerSecToRpm(p.peak_to_peak_error),
-                          p.dominant_frequency,        p.lost_steps};
+    SweepRow(p, linear, 0, &row);
     csv.Row(row);
   }
   csv.Commit();
@@ -389,18 +458,17 @@ std::vector<SweepPoint> ReadSweepCsv(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(fmt::format("cannot read {}", path));
   std::string line;
-  std::string header;
-  for (const char* name : kSweepHeader) {
-    if (!header.empty()) header += ',';
-    header += name;
-  }
-  if (!std::getline(in, line) || line != header) {
+  const std::string header = fmt::format("{}", fmt::join(SweepHeader(false), ","));
+  const std::string linear_header = fmt::format("{}", fmt::join(SweepHeader(true), ","));
+  if (!std::getline(in, line) || (line != header && line != linear_header)) {
     throw std::runtime_error(
-        fmt::format("{}: not a sweep CSV (expected the header {})", path, header));
+        fmt::format("{}: not a sweep CSV (expected the header {}, on a linear axis with {})", path,
+                    header, kCarriageSpeedHeader));
   }
+  const size_t count = line == header ? std::size(kSweepHeader) : std::size(kSweepHeader) + 1;
   std::vector<SweepPoint> points;
+  std::vector<double> v(count);
   for (int row = 2; std::getline(in, line); ++row) {
-    double v[std::size(kSweepHeader)];
     std::istringstream fields(line);
     std::string field;
     for (double& x : v) {
@@ -408,19 +476,19 @@ std::vector<SweepPoint> ReadSweepCsv(const std::string& path) {
       const bool present = static_cast<bool>(std::getline(fields, field, ','));
       if (present) x = std::strtod(field.c_str(), &end);
       if (!present || end == field.c_str() || *end != '\0') {
-        throw std::runtime_error(
-            fmt::format("{}:{}: not {} numbers: {}", path, row, std::size(kSweepHeader), line));
+        throw std::runtime_error(fmt::format("{}:{}: not {} numbers: {}", path, row, count, line));
       }
     }
     if (std::getline(fields, field, ',')) {
       throw std::runtime_error(
-          fmt::format("{}:{}: more than {} fields: {}", path, row, std::size(kSweepHeader), line));
+          fmt::format("{}:{}: more than {} fields: {}", path, row, count, line));
     }
     points.push_back({.speed = v[1],
                       .rms_error = RpmToRadPerSec(v[2]),
                       .peak_to_peak_error = RpmToRadPerSec(v[3]),
                       .dominant_frequency = v[4],
-                      .lost_steps = v[5]});
+                      .lost_steps = v[5],
+                      .carriage_speed = count > 6 ? 1e-3 * v[6] : NAN});
   }
   return points;
 }

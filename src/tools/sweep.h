@@ -6,6 +6,7 @@
 #ifndef MJSTEPPER_TOOLS_SWEEP_H_
 #define MJSTEPPER_TOOLS_SWEEP_H_
 
+#include <cmath>
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -16,9 +17,12 @@
 namespace mjstepper::tools {
 
 struct SweepOptions {
-  std::string model;                      ///< MJCF path
-  std::string actuator;                   ///< the stepper swept; empty: the model's only one
-  std::vector<double> speeds;             ///< rad/s
+  std::string model;           ///< MJCF path
+  std::string actuator;        ///< the stepper swept; empty: the model's only one
+  std::vector<double> speeds;  ///< rad/s
+  /// The speeds are m/s at the stepper's carriage (mm/s, m/s; a linear axis, README "Linear
+  /// axes"), converted with its rad per metre (RadPerMetre) once the model is loaded.
+  bool speeds_at_carriage = false;
   double acceleration = 209.44;           ///< rad/s² of the ramp to each speed (2000 r/min/s)
   double settle = 0.4;                    ///< s after the ramp before measuring
   double measure = 0.5;                   ///< s measured
@@ -34,6 +38,7 @@ struct SweepPoint {
   double peak_to_peak_error = 0;  ///< rad/s
   double dominant_frequency = 0;  ///< Hz, of the velocity error, searched in [5, 1000] Hz
   double lost_steps = 0;          ///< full steps slipped by the end
+  double carriage_speed = NAN;    ///< m/s, commanded, at a linear axis's carriage; NaN: rotary
 };
 
 struct PullOutOptions {
@@ -41,8 +46,11 @@ struct PullOutOptions {
   /// The MJCF text itself, read in place of the file `model` (which then only names it), e.g.
   /// `mjstepper size`'s bench; no overrides with it.
   std::string model_text;
-  std::string actuator;                   ///< the stepper; empty: the model's only one
-  std::vector<double> speeds;             ///< rad/s
+  std::string actuator;        ///< the stepper; empty: the model's only one
+  std::vector<double> speeds;  ///< rad/s
+  /// The speeds are m/s at the stepper's carriage (mm/s, m/s; a linear axis, README "Linear
+  /// axes"), converted with its rad per metre (RadPerMetre) once the model is loaded.
+  bool speeds_at_carriage = false;
   double acceleration = 209.44;           ///< rad/s² of the ramp to each speed (2000 r/min/s)
   double settle = 0.3;                    ///< s at speed before the load starts
   double rate = 0.5;                      ///< N·m/s, rotor side: how fast the load torque rises
@@ -64,6 +72,8 @@ struct PullOutPoint {
   double torque = 0;  ///< N·m, rotor side: the load last held before the first slip (RunPullOut)
   bool slipped_unloaded = false;  ///< it slipped before the load started (torque 0)
   bool held_max = false;          ///< it held max_torque without slipping
+  double carriage_speed = NAN;    ///< m/s, commanded, at a linear axis's carriage; NaN: rotary
+  double force = NAN;             ///< N, `torque` at that carriage; NaN: rotary
 };
 
 /// `mjstepper map`: the sweep repeated over values of one load parameter, on all cores.

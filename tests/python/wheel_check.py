@@ -231,8 +231,8 @@ class OneEngine(unittest.TestCase):
         finally:
             ray.shutdown()
         self.assertEqual(read(base + "_ray.csv"), read(base + "_cli.csv"))
-        for name in table.dtype.names:
-            self.assertEqual(on_ray[name].tolist(), table[name].tolist(), name)
+        for name in table.dtype.names:  # (NaN equal to NaN: a rotary axis's carriage_speed)
+            np.testing.assert_array_equal(on_ray[name], table[name], name)
         self.assertFalse(os.path.exists(base + "_ray.csv.tmp"))
 
     def test_map(self):
@@ -253,8 +253,8 @@ class OneEngine(unittest.TestCase):
         finally:
             ray.shutdown()
         self.assertEqual(read(base + "_ray.csv"), read(base + "_cli.csv"))
-        for name in table.dtype.names:
-            self.assertEqual(on_ray[name].tolist(), table[name].tolist(), name)
+        for name in table.dtype.names:  # (NaN equal to NaN: a rotary axis's carriage_speed)
+            np.testing.assert_array_equal(on_ray[name], table[name], name)
 
     def test_pullout(self):
         base = os.path.join(os.getcwd(), "pullout")
@@ -265,6 +265,20 @@ class OneEngine(unittest.TestCase):
                          csv_column(base + "_cli.csv", "pull_out_torque[N·m]"))
         self.assertEqual(table.held_max.dtype, np.bool_)
         self.assertGreater(table.torque[0], 0.3)  # N·m: Km·I = 0.57 at low speed
+
+    def test_a_linear_axis_speaks_millimetres(self):
+        # models/belt_axis.xml declares its GT2 20-tooth pulley: 40 mm per turn (README, "Linear
+        # axes"); 50 and 100 mm/s are 75 and 150 r/min at the rotor.
+        belt = os.path.join(SOURCE, "models", "belt_axis.xml")
+        table = mjstepper.sweep(belt, "50,100mm/s", settle=0.1, measure=0.1)
+        np.testing.assert_allclose(table.carriage_speed, [0.05, 0.1], rtol=1e-12)
+        np.testing.assert_allclose(table.speed, np.array([75, 150]) * 2 * np.pi / 60, rtol=1e-12)
+        curve = mjstepper.pullout(belt, "100mm/s")
+        np.testing.assert_allclose(curve.force, curve.torque * 2 * np.pi / 0.04, rtol=1e-12)
+        self.assertTrue(np.isnan(mjstepper.sweep(RIGID, "60rpm", settle=0.1,
+                                                 measure=0.1).carriage_speed[0]))
+        with self.assertRaisesRegex(ValueError, "pulley_teeth"):
+            mjstepper.sweep(RIGID, "50mm/s")
 
     def test_size(self):
         base = os.path.join(os.getcwd(), "size")

@@ -124,16 +124,33 @@ def plot_versus_speed(path, out, title=None):
            title or os.path.basename(path), out)
 
 
+CARRIAGE_SPEED = "carriage_speed[mm/s]"  # a linear axis's sweep, map and pull-out
+
+
+def at_carriage(c, rpm):
+    """Rotor speeds (r/min) of a linear axis's CSV `c` as mm/s at its carriage (the CSV's own
+    ratio of carriage_speed[mm/s] to speed[r/min], the axis's one constant)."""
+    ratio = next(v / n for v, n in zip(c[CARRIAGE_SPEED], c["speed[r/min]"]) if n != 0)
+    return [abs(ratio) * v for v in rpm]
+
+
 def plot_sweep(paths, labels, out, title=None):
     fig, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    linear = True
     for path, label in zip(paths, labels):
         _, c = read_csv(path)
-        n = c["speed[r/min]"]
-        axes[0].plot(n, c["velocity_error_peak_to_peak[r/min]"], marker=".", lw=1, label=label)
+        linear = linear and CARRIAGE_SPEED in c
+    for path, label in zip(paths, labels):
+        _, c = read_csv(path)
+        ripple = c["velocity_error_peak_to_peak[r/min]"]
+        n = c[CARRIAGE_SPEED] if linear else c["speed[r/min]"]
+        axes[0].plot(n, at_carriage(c, ripple) if linear else ripple, marker=".", lw=1,
+                     label=label)
         axes[1].plot(n, c["dominant_frequency[Hz]"], marker=".", lw=0.8, label=label)
-    axes[0].set_ylabel("velocity error, peak-to-peak (r/min)")
+    unit = "mm/s at the carriage" if linear else "r/min"
+    axes[0].set_ylabel(f"velocity error, peak-to-peak ({unit})")
     axes[1].set_ylabel("dominant frequency (Hz)")
-    axes[1].set_xlabel("commanded speed (r/min)")
+    axes[1].set_xlabel(f"commanded speed ({unit})")
     for ax in axes:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
@@ -145,7 +162,11 @@ def plot_sweep(paths, labels, out, title=None):
 def plot_pullout(path, out, title=None):
     _, c = read_csv(path)
     fig, ax = plt.subplots(figsize=(9, 5))
-    n, torque = c["speed[r/min]"], c["pull_out_torque[N·m]"]
+    linear = CARRIAGE_SPEED in c
+    if linear:  # a linear axis: mm/s and N at its carriage
+        n, torque = c[CARRIAGE_SPEED], c["pull_out_force[N]"]
+    else:
+        n, torque = c["speed[r/min]"], c["pull_out_torque[N·m]"]
     ax.plot(n, torque, marker=".", lw=1)
     unloaded = [i for i, flag in enumerate(c["slipped_before_load[1/0]"]) if flag > 0]
     if unloaded:
@@ -153,7 +174,9 @@ def plot_pullout(path, out, title=None):
                 label="slipped before any load")
         ax.legend(fontsize=8)
     ax.set_ylim(bottom=0)
-    finish(fig, ax, "speed (r/min)", "pull-out torque (N·m)", title or os.path.basename(path), out)
+    finish(fig, ax, "carriage speed (mm/s)" if linear else "speed (r/min)",
+           "pull-out force at the carriage (N)" if linear else "pull-out torque (N·m)",
+           title or os.path.basename(path), out)
 
 
 def plot_size(demand_path, pullout_path, out, title=None):
@@ -162,14 +185,24 @@ def plot_size(demand_path, pullout_path, out, title=None):
     its motor's simulated pull-out curve, the worst point marked with its margin."""
     _, d = read_csv(demand_path)
     _, p = read_csv(pullout_path)
-    speed = [abs(v) * RPM for v in d["speed[rad/s]"]]
-    torque = [abs(v) for v in d["torque[N·m]"]]
+    if "carriage_speed[mm/s]" in d:  # a linear axis: mm/s and N at its carriage
+        # the rotor's rad/s and N·m per carriage mm/s and N: the CSV's own constant ratios
+        k = next(c / w for c, w in zip(d["carriage_speed[mm/s]"], d["speed[rad/s]"]) if w != 0)
+        f = next(fo / t for fo, t in zip(d["force[N]"], d["torque[N·m]"]) if t != 0)
+        speed_of, torque_of = (lambda w: abs(k * w)), (lambda t: abs(f * t))
+        labels = ("carriage speed (mm/s)", "force at the carriage (N)")
+        curve = ([abs(v) for v in p["carriage_speed[mm/s]"]], p["pull_out_force[N]"])
+    else:
+        speed_of, torque_of = (lambda w: abs(w) * RPM), abs
+        labels = ("rotor speed (r/min)", "rotor torque (N·m)")
+        curve = (p["speed[r/min]"], p["pull_out_torque[N·m]"])
+    speed = [speed_of(v) for v in d["speed[rad/s]"]]
+    torque = [torque_of(v) for v in d["torque[N·m]"]]
     fig, ax = plt.subplots(figsize=(9, 5))
-    ax.plot(p["speed[r/min]"], p["pull_out_torque[N·m]"], "k.-", lw=1.5,
-            label="pull-out (simulated on the bench)")
-    ax.plot([abs(v) * RPM for v in d["motor_speed[rad/s]"]],
-            [abs(v) for v in d["motor_torque[N·m]"]], "-", color="tab:blue", lw=0.6, alpha=0.5,
-            label="the motor in the simulated cycle, |τm + τdet| (10 ms mean)")
+    ax.plot(curve[0], curve[1], "k.-", lw=1.5, label="pull-out (simulated on the bench)")
+    ax.plot([speed_of(v) for v in d["motor_speed[rad/s]"]],
+            [torque_of(v) for v in d["motor_torque[N·m]"]], "-", color="tab:blue", lw=0.6,
+            alpha=0.5, label="the motor in the simulated cycle, |τm + τdet| (10 ms mean)")
     ax.plot(speed, torque, "-", color="tab:orange", lw=1.0,
             label="demand: the torque the move needs (inverse dynamics)")
     margins = d["margin[1]"]
@@ -179,8 +212,7 @@ def plot_size(demand_path, pullout_path, out, title=None):
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=0)
     ax.legend(fontsize=8, loc="upper right")
-    finish(fig, ax, "rotor speed (r/min)", "rotor torque (N·m)",
-           title or os.path.basename(demand_path), out)
+    finish(fig, ax, labels[0], labels[1], title or os.path.basename(demand_path), out)
 
 
 def plot_map(path, out, title=None):
@@ -189,22 +221,26 @@ def plot_map(path, out, title=None):
     header, c = read_csv(path)
     parameter = header[0]
     values = sorted(set(c[parameter]))
-    speeds = sorted(set(c["speed[r/min]"]))
+    linear = CARRIAGE_SPEED in c  # a linear axis: speeds and ripple in mm/s at its carriage
+    key = CARRIAGE_SPEED if linear else "speed[r/min]"
+    ripples = c["velocity_error_peak_to_peak[r/min]"]
+    if linear:
+        ripples = at_carriage(c, ripples)
+    speeds = sorted(set(c[key]))
     grid = [[0.0] * len(speeds) for _ in values]
     lost = []
-    for v, n, ripple, steps in zip(c[parameter], c["speed[r/min]"],
-                                   c["velocity_error_peak_to_peak[r/min]"],
-                                   c["lost_steps[full steps]"]):
+    for v, n, ripple, steps in zip(c[parameter], c[key], ripples, c["lost_steps[full steps]"]):
         grid[values.index(v)][speeds.index(n)] = ripple
         if steps != 0:
             lost.append((n, v))
+    unit = "mm/s at the carriage" if linear else "r/min"
     fig, ax = plt.subplots(figsize=(9, 5))
     mesh = ax.pcolormesh(speeds, values, grid, shading="nearest", cmap="magma")
-    fig.colorbar(mesh, ax=ax, label="velocity error, peak-to-peak (r/min)")
+    fig.colorbar(mesh, ax=ax, label=f"velocity error, peak-to-peak ({unit})")
     if lost:
         ax.plot([n for n, _ in lost], [v for _, v in lost], "c.", ms=4, label="lost steps")
         ax.legend(fontsize=8, loc="upper right")
-    finish(fig, ax, "commanded speed (r/min)", parameter, title or os.path.basename(path), out)
+    finish(fig, ax, f"commanded speed ({unit})", parameter, title or os.path.basename(path), out)
 
 
 def plot_resonance(path, out, title=None):
