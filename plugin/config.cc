@@ -204,7 +204,9 @@ constexpr AttributeSpec kAttrTorqueConstantCoefficient{
 constexpr AttributeSpec kAttrGauge{
     "gauge", "name", "`on`", "—",
     "`on`: draw the load-angle gauge on the rotor in every MuJoCo scene (viewer, renders), just "
-    "beyond the rotor body's geoms along the joint axis on the side the camera looks from: a "
+    "beyond the rotor body's geoms along the joint axis on the side the camera looks from (on a "
+    "slide joint, on the carriage's face towards the camera, the slide's axis its reference, "
+    "its size 0.3 of the carriage's bounding radius): a "
     "long thin green arrow for the commanded electrical angle and a short thick magenta one for "
     "the rotor's; the angle between them is δ, and a magenta arrow sweeping full turns is lost "
     "steps. Its size is the rotor body's radius, kept within 2.5-50 % of the model's extent "

@@ -113,8 +113,11 @@ int GaugeJoint(const mjModel* m, int trntype, int target) {
 }
 
 // The gauge's scale (m): its joint's body's bounding radius, kept within 2.5-50 % of the model's
-// extent (MuJoCo's stat.extent), so that the gauge reads at the scene's scale (issue 32, item 4:
-// a few pixels on a 6 mm pulley, huge on a slide's carriage); 2 cm with no joint or extent.
+// extent (MuJoCo's stat.extent), so that the gauge reads at the scene's scale (issue 32, item 4: a
+// few pixels on a 6 mm pulley, huge on a slide's carriage); a slide's, whose dial lies on the
+// carriage's face, kSlideGaugeOfBody of it, at most 50 %: the command arrow (2 radii) stays
+// within the carriage; 2 cm with no joint or extent.
+constexpr double kSlideGaugeOfBody = 0.3;
 double GaugeRadius(const mjModel* m, int joint) {
   if (joint < 0) return 0.02;
   const int body = m->jnt_bodyid[joint];
@@ -124,6 +127,10 @@ double GaugeRadius(const mjModel* m, int joint) {
     radius = std::max(radius, m->geom_rbound[g]);
   }
   const double extent = m->stat.extent;  // m
+  if (m->jnt_type[joint] == mjJNT_SLIDE && radius > 0) {
+    return extent > 0 ? std::min(kSlideGaugeOfBody * radius, kGaugeMaxOfExtent * extent)
+                      : kSlideGaugeOfBody * radius;
+  }
   if (!(extent > 0)) return radius > 0 ? radius : 0.02;
   return std::clamp(radius > 0 ? radius : 0.02, kGaugeMinOfExtent * extent,
                     kGaugeMaxOfExtent * extent);
@@ -960,24 +967,10 @@ void Stepper::Visualize(const mjModel* m, const mjData* d, mjvScene* scene, int 
     const double theta = d->actuator_length[a.outadr];
     const double load_angle = drive_->Signals(CurrentState(m, d, instance, slot), theta).load_angle;
     const double radius = a.gauge_radius;  // m (GaugeRadius)
-    const mjtNum* axis = d->xaxis + 3 * joint;
-    const mjtNum* xmat = d->xmat + 9 * body;
-    // Reference: the body's y axis (else x) with its component along the joint axis removed.
-    mjtNum ref[3];
-    for (int k : {1, 0}) {
-      const mjtNum column[3] = {xmat[k], xmat[3 + k], xmat[6 + k]};
-      mju_addScl3(ref, column, axis, -mju_dot3(column, axis));
-      if (mju_normalize3(ref) > 0.1) break;
-    }
-    // The rotor's electrical arrow at −δ from the command's: u·cos δ − (axis × u)·sin δ.
-    mjtNum side[3], rotor[3];
-    mju_cross(side, axis, ref);
-    mju_scl3(rotor, ref, std::cos(load_angle));
-    mju_addToScl3(rotor, side, -std::sin(load_angle));
-    // The gauge sits just beyond the rotor body's geoms along the joint axis, on the side the
-    // camera looks from (mjv_updateScene runs this before it updates the scene's cameras: a
-    // renderer that wants this frame's view calls mjv_updateCamera first; a viewer's is a frame
-    // old): the rotor never hides it. Without a camera yet (all zero), the +axis side.
+    // The gauge sits just beyond the rotor body's geoms on the side the camera looks from
+    // (mjv_updateScene runs this before it updates the scene's cameras: a renderer that wants
+    // this frame's view calls mjv_updateCamera first; a viewer's is a frame old): the rotor never
+    // hides it. Without a camera yet (all zero), the +axis side.
     const mjtNum* anchor = d->xanchor + 3 * joint;
     const mjvGLCamera* eyes = scene->camera;  // left and right eye (the same without stereo)
     mjtNum to_eye[3], forward = 0;
@@ -986,6 +979,35 @@ void Stepper::Visualize(const mjModel* m, const mjData* d, mjvScene* scene, int 
       forward += eyes[0].forward[i] * eyes[0].forward[i];
     }
     const bool has_camera = forward > 0.25;  // a unit vector once the camera is set
+    // The dial's normal: a hinge's axis, its face on the camera's side along it; a slide's
+    // carriage has no rotor, so its dial faces the camera (else up) from the carriage's near side,
+    // the slide's axis its reference (issue 32, item 4: along the slide, beyond the carriage's
+    // end, the dial left the frame that holds the carriage).
+    const mjtNum* joint_axis = d->xaxis + 3 * joint;
+    const bool slide = m->jnt_type[joint] == mjJNT_SLIDE;
+    mjtNum axis[3] = {joint_axis[0], joint_axis[1], joint_axis[2]};
+    if (slide) {
+      const mjtNum up[3] = {0, 0, 1};
+      mju_copy3(axis, has_camera ? to_eye : up);
+      if (mju_normalize3(axis) < mjMINVAL) mju_copy3(axis, up);
+    }
+    // Reference: the slide's axis, or the body's y axis (else x), with its component along the
+    // dial's normal removed.
+    const mjtNum* xmat = d->xmat + 9 * body;
+    mjtNum ref[3];
+    for (int k : {-1, 1, 0}) {
+      if (k < 0 && !slide) continue;
+      const mjtNum column[3] = {k < 0 ? joint_axis[0] : xmat[k],
+                                k < 0 ? joint_axis[1] : xmat[3 + k],
+                                k < 0 ? joint_axis[2] : xmat[6 + k]};
+      mju_addScl3(ref, column, axis, -mju_dot3(column, axis));
+      if (mju_normalize3(ref) > 0.1) break;
+    }
+    // The rotor's electrical arrow at −δ from the command's: u·cos δ − (axis × u)·sin δ.
+    mjtNum side[3], rotor[3];
+    mju_cross(side, axis, ref);
+    mju_scl3(rotor, ref, std::cos(load_angle));
+    mju_addToScl3(rotor, side, -std::sin(load_angle));
     const double sense = has_camera && mju_dot3(to_eye, axis) < 0 ? -1.0 : 1.0;
     mjtNum toward[3];  // unit, along the axis toward the camera
     mju_scl3(toward, axis, sense);

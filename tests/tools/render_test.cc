@@ -489,6 +489,61 @@ TEST(RenderCamera, DefaultCameraFramesTheBodies) {
   mjv_freeScene(&scene);
 }
 
+// Issue 32, item 4: a stepper on a slide (a carriage on a rail, the rail a world geom) draws its
+// gauge on the carriage's face towards the camera, within the frame the default camera gives the
+// carriage: every arrow's start and tip project inside it. (Drawn along the slide beyond the
+// carriage's end, as a hinge's is along its axis, the dial left the frame.)
+TEST(RenderGauge, ASlidesGaugeStaysInTheFrame) {
+  const auto path = TempDir("slide_gauge") / "slide.xml";
+  std::ofstream(path) << R"(<mujoco><option timestep="5e-5"/>
+  <extension><plugin plugin="mjstepper.stepper"/></extension>
+  <worldbody><light pos="0 -0.5 1" dir="0 0.5 -1"/>
+  <geom type="box" size="0.4 0.01 0.005"/>
+  <body name="carriage" pos="0 0 0.02"><joint name="x" type="slide" axis="1 0 0"/>
+  <geom type="box" size="0.03 0.025 0.012" mass="0.5"/></body></worldbody>
+  <actuator><plugin name="x" joint="x" gear="157.08" plugin="mjstepper.stepper"
+    armature="0.36e-4"/></actuator></mujoco>)";
+  const StepperModel sm = LoadStepperModel(path.string());
+  const mjModel* m = sm.model.get();
+  DataPtr d(mj_makeData(m));
+  mj_forward(m, d.get());
+  const int w = 640, h = 480;
+  OffscreenRenderer renderer(m, {.width = w, .height = h, .camera = ""});
+  mjvCamera camera = renderer.camera();
+  mjvScene scene;
+  mjv_defaultScene(&scene);
+  mjv_makeScene(m, &scene, 100);
+  mjvOption option;
+  mjv_defaultOption(&option);
+  mjv_updateCamera(m, d.get(), &camera, &scene);
+  mjv_updateScene(m, d.get(), &option, nullptr, &camera, mjCAT_ALL, &scene);
+  mjvGLCamera eye = scene.camera[0];
+  for (int i = 0; i < 3; ++i) eye.pos[i] = 0.5f * (scene.camera[0].pos[i] + scene.camera[1].pos[i]);
+  const double tan_y = std::tan(0.5 * m->vis.global.fovy * mjPI / 180), tan_x = tan_y * w / h;
+  const double forward[3] = {eye.forward[0], eye.forward[1], eye.forward[2]};
+  const double up[3] = {eye.up[0], eye.up[1], eye.up[2]};
+  double right[3];
+  mju_cross(right, forward, up);
+  int arrows = 0;
+  for (int g = 0; g < scene.ngeom; ++g) {
+    const mjvGeom& geom = scene.geoms[g];
+    if (geom.type != mjGEOM_ARROW || geom.category != mjCAT_DECOR) continue;
+    ++arrows;
+    for (const double reach : {0.0, 1.0}) {  // the arrow's start and tip (its z axis, size[2])
+      double v[3];
+      for (int i = 0; i < 3; ++i) {
+        v[i] = geom.pos[i] + reach * geom.mat[3 * i + 2] * geom.size[2] - eye.pos[i];
+      }
+      const double depth = mju_dot3(v, forward);
+      ASSERT_GT(depth, 0);
+      EXPECT_LE(std::abs(mju_dot3(v, right) / depth / tan_x), 1) << "arrow " << arrows;
+      EXPECT_LE(std::abs(mju_dot3(v, up) / depth / tan_y), 1) << "arrow " << arrows;
+    }
+  }
+  EXPECT_EQ(arrows, 2);
+  mjv_freeScene(&scene);
+}
+
 }  // namespace
 }  // namespace mjstepper::tools
 
