@@ -24,8 +24,29 @@ bool SaneMagnitude(double v) {
 
 }  // namespace
 
+std::string Excerpt(std::string_view text) {
+  constexpr size_t kShown = 60;  // bytes of a long text a message quotes
+  size_t shown = std::min(text.size(), kShown);
+  while (shown < text.size() && shown > 0 &&
+         (static_cast<unsigned char>(text[shown]) & 0xC0) == 0x80) {
+    --shown;  // not inside a UTF-8 character
+  }
+  std::string out;
+  out.reserve(shown + 16);
+  for (const char c : text.substr(0, shown)) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte < 0x20 || byte == 0x7f) {
+      out += fmt::format("\\x{:02x}", byte);
+    } else {
+      out += c;
+    }
+  }
+  if (shown < text.size()) out += fmt::format("… ({} characters)", text.size());
+  return out;
+}
+
 void ThrowBad(const AttributeSpec& spec, const std::string& value, const std::string& rule) {
-  throw ConfigError(fmt::format("{} = \"{}\": {}", spec.name, value, rule));
+  throw ConfigError(fmt::format("{} = \"{}\": {}", spec.name, Excerpt(value), rule));
 }
 
 std::string Trim(const std::string& s) {

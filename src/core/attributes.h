@@ -33,6 +33,12 @@ class ConfigError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// `text` as a message quotes it (issue 33: messages echoed a 100 MB argument, and a step file's
+/// terminal escapes): whole up to 60 bytes, else its first 60 (not splitting a UTF-8 character)
+/// and its length; control characters as \xNN.
+std::string Excerpt(std::string_view text);
+
+/// Throws; the value is quoted as Excerpt quotes it.
 [[noreturn]] void ThrowBad(const AttributeSpec& spec, const std::string& value,
                            const std::string& rule);
 

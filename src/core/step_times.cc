@@ -66,6 +66,10 @@ StepTimes StepTimes::Parse(std::istream& in, const std::string& source) {
     s.times_.push_back(time);
     s.counts_.push_back(count);
   }
+  if (in.bad()) {  // a read that failed (issue 33: /proc/self/mem read as an empty list)
+    throw std::invalid_argument(fmt::format(
+        "{}: cannot be read (a read failed after line {}: not a text file)", source, number));
+  }
   if (s.times_.empty()) {
     throw std::invalid_argument(fmt::format("{}: no step times (one time in s per line)", source));
   }

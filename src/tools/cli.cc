@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -67,10 +68,22 @@ const CLI::Validator kModelFile(
     "FILE", "model file");
 
 // A CLI11 validator for an output path or prefix: not empty (issue 33: `--out ''` wrote files
-// named by their suffix alone, `_raw.csv`, into the working folder).
+// named by their suffix alone, `_raw.csv`, into the working folder), and not a device or another
+// special file (issue 33: `--out /dev/null` wrote /dev/null_raw.csv and /dev/null_psd.csv).
 const CLI::Validator kNonEmptyPath(
     [](std::string& text) -> std::string {
-      return text.empty() ? "an empty path: give a file or a prefix" : "";
+      if (text.empty()) return "an empty path: give a file or a prefix";
+      std::error_code error;
+      const auto status = std::filesystem::status(text, error);  // (through symlinks)
+      if (!error && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status) &&
+          !std::filesystem::is_directory(status)) {
+        return fmt::format(
+            "'{}' is a device or another special file, not a file to write nor a prefix for "
+            "files beside it: give a path in a folder (to discard the output, leave the option "
+            "out where it is optional)",
+            Excerpt(text));
+      }
+      return "";
     },
     "PATH", "non-empty");
 

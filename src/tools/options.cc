@@ -109,12 +109,6 @@ void RequireInRange(const std::string& option, const OptionRange& range, double 
                                           range.lo, range.hi, *range.unit ? " " : "", range.unit));
 }
 
-std::string Excerpt(const std::string& text) {
-  constexpr size_t kShown = 60;  // characters of a long text a message quotes
-  if (text.size() <= kShown) return text;
-  return fmt::format("{}… ({} characters)", text.substr(0, kShown), text.size());
-}
-
 std::vector<double> ParseSpeedList(const std::string& text, const std::string& option,
                                    bool* at_carriage) {
   // Linear in the text (issue 33: each number's bound check formatted a message quoting the whole

@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "core/attributes.h"  // Excerpt
+
 namespace mjstepper::tools {
 
 /// A closed range [lo, hi] in `unit`; `what` says what the option is, for the README's table.
@@ -37,10 +39,6 @@ inline constexpr double kMaxRuns = 1e5;
 /// The fewest timesteps a sweep's measured window holds: fewer would make a ripple and a frequency
 /// out of a handful of samples.
 inline constexpr int kMinMeasuredSteps = 100;
-
-/// `text` as a message quotes it: whole up to 60 characters, else its first 60 and its length
-/// (issue 33: a message echoed a 100 MB argument).
-std::string Excerpt(const std::string& text);
 
 /// "10:200:2.5rpm" (from:to:step, inclusive), "50,100,150rpm", or one speed; units rpm, r/min,
 /// rad/s. Every speed within Range("speed") and at most kMaxRuns of them. Throws

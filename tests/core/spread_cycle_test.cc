@@ -363,6 +363,24 @@ TEST(DriverChip, RegisterRangesAreChecked) {
   EXPECT_NE(message({{"driver", "a4988"}}).find("use drive = chopper"), std::string::npos);
   EXPECT_NE(message({{"driver", "l298"}}).find("must be one of"), std::string::npos);
   EXPECT_EQ(message({{"hstrt", "7"}, {"hend", "11"}}), "");  // 8 + 8 = 16: allowed
+  // Issue 33: only hend written, so hend is named, and hstrt shown as the chip's default (the
+  // message named hstrt = "5", which the user never wrote).
+  const std::string hend_only = message({{"hend", "15"}});
+  EXPECT_EQ(hend_only.rfind("hend = \"15\"", 0), 0u) << hend_only;
+  EXPECT_NE(hend_only.find("(hstrt = 5, the tmc2209 default)"), std::string::npos) << hend_only;
+  // Issue 33: a current table that is no quarter wave (all zero: the rotor never moved).
+  const std::map<std::string, std::string> quarter = {{"microsteps", "4"}};
+  auto table = [&](const std::string& entries) {
+    auto kv = quarter;
+    kv["current_table"] = entries;
+    return message(kv);
+  };
+  EXPECT_EQ(table("0 0.38 0.71 0.92 1"), "");
+  EXPECT_NE(table("0 0 0 0 0").find("starts at 0 and ends at 1 (this one: 0 to 0)"),
+            std::string::npos);
+  EXPECT_NE(table("0.1 0.38 0.71 0.92 1").find("starts at 0"), std::string::npos);
+  EXPECT_NE(table("0 0.71 0.38 0.92 1").find("entry 2 (0.38) is below entry 1 (0.71)"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -80,7 +80,8 @@ std::string ConsumeProfileText(FuzzedDataProvider& in) {
   return text;
 }
 
-// Property 3. `given`: what the reader returned for each name (NUL ends a value, as in C).
+// Property 3: a rejection names the attribute and quotes its value (Excerpt) or its default.
+// `given`: what the reader returned for each name (NUL ends a value, as in C).
 void CheckRejection(const std::string& message, const std::map<std::string, std::string>& given) {
   const std::string context = "message: " + message + "\n" + Describe(given);
   const size_t eq = message.find(" = \"");
@@ -111,7 +112,9 @@ void CheckRejection(const std::string& message, const std::map<std::string, std:
     }
     return;
   }
-  if (rest.compare(0, value.size() + 3, value + "\": ") == 0) return;
+  // Quoted as a bounded excerpt with its control characters escaped (issue 33).
+  const std::string shown = mjstepper::Excerpt(value);
+  if (rest.compare(0, shown.size() + 3, shown + "\": ") == 0) return;
   // The value respelled as a number (e.g. "5.0" quoted as "5")?
   const size_t close = rest.find("\": ");
   double quoted = 0, written = 0;

@@ -41,6 +41,25 @@ TEST(Config, StrictNumbers) {
 // Issue 16: a leading '+' is skipped for from_chars, which then read "+-1" as −1 (a detent phase
 // of "+-1" loaded as −1 rad). One sign only: "+-1", "++1" and a lone "+" are no numbers, in a
 // single value and in a detent triplet alike.
+// Issue 33: a message quotes a bad value as a bounded excerpt with its control characters escaped
+// (a 100 MB value gave a 100 MB message; a terminal escape in it cleared the user's screen).
+TEST(Config, MessagesQuoteABoundedEscapedExcerpt) {
+  const std::string huge(1000000, '7');
+  const auto long_parsed = ParseMap({{"bus_voltage", huge + "V"}});
+  const auto* long_error = std::get_if<std::string>(&long_parsed);
+  ASSERT_NE(long_error, nullptr);
+  EXPECT_LT(long_error->size(), 300u);
+  EXPECT_THAT(*long_error, HasSubstr("… (1000001 characters)"));
+  const auto escape_parsed = ParseMap({{"bus_voltage", "\x1b[2J48"}});
+  const auto* escape = std::get_if<std::string>(&escape_parsed);
+  ASSERT_NE(escape, nullptr);
+  EXPECT_THAT(*escape, HasSubstr("bus_voltage = \"\\x1b[2J48\""));
+  EXPECT_EQ(escape->find('\x1b'), std::string::npos);
+  // A cut never splits a UTF-8 character: 59 bytes, then a 2-byte "²" across the 60th.
+  EXPECT_EQ(Excerpt(std::string(59, 'a') + "²" + std::string(10, 'b')),
+            std::string(59, 'a') + "… (71 characters)");
+}
+
 TEST(Config, OneSignOnly) {
   double v = 0;
   EXPECT_TRUE(ParseFiniteDouble("-1", &v));

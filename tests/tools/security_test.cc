@@ -452,6 +452,29 @@ TEST(Conventions, SeedsAndEmptyOutputPathsAreRefused) {
   EXPECT_TRUE(Entries(dir).empty());
 }
 
+// Issue 33: an output prefix that is a device wrote beside it (`--out /dev/null` made
+// /dev/null_raw.csv and /dev/null_psd.csv); a step list from a file whose read fails
+// (/proc/self/mem) was "no step times".
+TEST(Security, DevicePrefixesAndUnreadableStepFilesAreRefused) {
+  const std::string bed = MJSTEPPER_SOURCE_DIR "/models/bedslinger.xml";
+  std::error_code ignored;
+  for (const char* suffix : {"_raw.csv", "_psd.csv"}) {
+    fs::remove(std::string("/dev/null") + suffix, ignored);
+  }
+  Result r = Cli({"resonance-test", bed, "--axis", "y", "--out", "/dev/null", "--quiet"});
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("'/dev/null' is a device or another special file"));
+  EXPECT_FALSE(fs::exists("/dev/null_raw.csv"));
+  EXPECT_FALSE(fs::exists("/dev/null_psd.csv"));
+  r = Cli({"sweep", bed, "--speeds", "10rpm", "--out", "/dev/zero"});
+  EXPECT_EQ(r.status, 2) << r.output;
+  const std::string corexy = MJSTEPPER_SOURCE_DIR "/models/corexy.xml";
+  r = Cli({"run", corexy, "--duration", "0.01", "--quiet", "--ctrl",
+           "stepper_a=steps(/proc/self/mem)"});
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("/proc/self/mem: cannot be read (a read failed"));
+}
+
 // Issue 32, item 5: a too-coarse timestep is warned of once (it was printed three times: the
 // plugin's load warning, cut at MuJoCo's 1000 characters, again whole, and the command's own).
 TEST(Conventions, EachWarningOnce) {

@@ -100,14 +100,28 @@ struct SpreadCycle {
     c.table = MicrostepTable::FromAttributes(a, motor, chip->interpolate, f_clk);
     const int toff = a.Integer(kAttrToff, chip->toff, 1, 15);
     const int tbl = a.Integer(kAttrTbl, chip->tbl, 0, 3);
+    // A pair that does not go together is blamed on the value the user wrote (issue 33: with
+    // only hend set, the message named hstrt = 5, the chip's default), the other quoted with its
+    // origin.
+    auto origin = [&](const AttributeSpec& spec) {
+      return a.Raw(spec) ? "" : fmt::format(", the {} default", chip->name);
+    };
     if (toff == 1 && tbl < 2) {
-      ThrowBad(kAttrToff, "1", fmt::format("needs tbl >= 2 (tbl = {})", tbl));
+      const bool blame_tbl = a.Raw(kAttrTbl) && !a.Raw(kAttrToff);
+      ThrowBad(blame_tbl ? kAttrTbl : kAttrToff, std::to_string(blame_tbl ? tbl : toff),
+               blame_tbl ? fmt::format("toff = 1{} needs tbl >= 2", origin(kAttrToff))
+                         : fmt::format("needs tbl >= 2 (tbl = {}{})", tbl, origin(kAttrTbl)));
     }
     const int hstrt = a.Integer(kAttrHstrt, chip->hstrt, 0, 7) + 1;  // 1..8
     const int hend = a.Integer(kAttrHend, chip->hend, 0, 15) - 3;    // −3..12
     if (hstrt + hend > 16) {
-      ThrowBad(kAttrHstrt, std::to_string(hstrt - 1),
-               fmt::format("the effective HSTRT + HEND = {} + {} must be <= 16", hstrt, hend));
+      const bool blame_hend = a.Raw(kAttrHend) && !a.Raw(kAttrHstrt);
+      ThrowBad(
+          blame_hend ? kAttrHend : kAttrHstrt, std::to_string(blame_hend ? hend + 3 : hstrt - 1),
+          fmt::format("the effective HSTRT + HEND = {} + {} must be <= 16 ({} = {}{}); "
+                      "lower hstrt or hend",
+                      hstrt, hend, blame_hend ? "hstrt" : "hend", blame_hend ? hstrt - 1 : hend + 3,
+                      origin(blame_hend ? kAttrHstrt : kAttrHend)));
     }
     c.off_time = (chip->off_time_base + 32.0 * toff) / f_clk;
     c.blank_time = chip->blank_clocks[tbl] / f_clk;

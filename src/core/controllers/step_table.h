@@ -274,6 +274,23 @@ struct MicrostepTable {
     t.interpolate =
         a.Choice(kAttrInterpolate, interpolate_by_default ? "on" : "off", {"on", "off"}) == "on";
     if (auto q = a.Reals(kAttrCurrentTable, 0.0, 1.0, t.microsteps + 1, t.microsteps + 1)) {
+      // A quarter wave as its documentation has it (issue 33: an all-zero table was accepted and
+      // the rotor never moved): 0 at the phase's zero, 1 at its peak, never falling between.
+      const std::string raw = *a.Raw(kAttrCurrentTable);
+      if (q->front() != 0 || q->back() != 1) {
+        ThrowBad(kAttrCurrentTable, raw,
+                 fmt::format("a quarter wave starts at 0 and ends at 1 (this one: {:g} to {:g}); "
+                             "scale it to its peak",
+                             q->front(), q->back()));
+      }
+      for (size_t k = 1; k < q->size(); ++k) {
+        if ((*q)[k] < (*q)[k - 1]) {
+          ThrowBad(kAttrCurrentTable, raw,
+                   fmt::format("entry {} ({:g}) is below entry {} ({:g}): a quarter wave rises "
+                               "from 0 to 1",
+                               k, (*q)[k], k - 1, (*q)[k - 1]));
+        }
+      }
       t.quarter = *q;
     }
     t.power_down = ReadPowerDown(a, chip, irun, clock_frequency);
