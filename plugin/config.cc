@@ -177,18 +177,27 @@ constexpr AttributeSpec kAttrInitialTemperature{
     "initial_temperature", "real", "`ambient_temperature`", "°C",
     "Winding and housing temperature when the drive starts (load, reset, keyframe: the plugin "
     "state restarts there). In [−50, 400]."};
+// The network's bounds (issue 33: 1e6 K/W on 1e-6 J/K put a winding at 1.4e7 °C after 1 s): the
+// catalogue presets span R_wh 0.56-1.2 and R_ha 2.6-6 K/W, C_w 10-46 and C_h 200-830 J/K
+// (src/core/presets.cc); the bounds leave two decades beyond on each side, from a NEMA 8 in still
+// air to a NEMA 34 on a machine's frame.
+constexpr double kLeastThermalResistance = 0.01, kMostThermalResistance = 100;  // K/W
+constexpr double kLeastHeatCapacity = 0.1, kMostHeatCapacity = 1e5;             // J/K
 constexpr AttributeSpec kAttrThermalResistanceWinding{
     "thermal_resistance_winding", "real", "preset", "K/W",
-    "R_wh, winding → housing (`heat`); > 0. Catalogue presets: fitted to the datasheet's "
-    "thermal time constants and temperature rise (`src/core/presets.cc`)."};
+    "R_wh, winding → housing (`heat`); in [0.01, 100]. Catalogue presets: fitted to the "
+    "datasheet's thermal time constants and temperature rise (`src/core/presets.cc`)."};
 constexpr AttributeSpec kAttrThermalResistanceHousing{
     "thermal_resistance_housing", "real", "preset", "K/W",
-    "R_ha, housing → ambient (`heat`); > 0. The steady winding rise is P·(R_wh + R_ha)."};
-constexpr AttributeSpec kAttrHeatCapacityWinding{"heat_capacity_winding", "real", "preset", "J/K",
-                                                 "C_w, the winding's heat capacity (`heat`); > 0."};
+    "R_ha, housing → ambient (`heat`); in [0.01, 100]. The steady winding rise is "
+    "P·(R_wh + R_ha)."};
+constexpr AttributeSpec kAttrHeatCapacityWinding{
+    "heat_capacity_winding", "real", "preset", "J/K",
+    "C_w, the winding's heat capacity (`heat`); in [0.1, 1e5]."};
 constexpr AttributeSpec kAttrHeatCapacityHousing{
     "heat_capacity_housing", "real", "preset", "J/K",
-    "C_h, the housing's (stator, end caps, what it is mounted on) heat capacity (`heat`); > 0."};
+    "C_h, the housing's (stator, end caps, what it is mounted on) heat capacity (`heat`); in "
+    "[0.1, 1e5]."};
 constexpr AttributeSpec kAttrInsulationClass{
     "insulation_class", "name", "`B`", "—",
     "The winding's thermal class (IEC 60085): `A` 105 °C, `E` 120 °C, `B` 130 °C (the "
@@ -319,7 +328,9 @@ std::optional<HeatParams> ParseHeat(const AttributeSource& a, const Preset& pres
       {&kAttrHeatCapacityHousing, &net.capacity_housing}};
   std::vector<std::string> missing;
   for (const auto& [spec, value] : constants) {
-    *value = a.Real(*spec, *value, Rule::kPositive);
+    const bool resistance = spec == constants[0].first || spec == constants[1].first;
+    *value = a.Real(*spec, *value, resistance ? kLeastThermalResistance : kLeastHeatCapacity,
+                    resistance ? kMostThermalResistance : kMostHeatCapacity);
     if (!(*value > 0)) missing.emplace_back(spec->name);
   }
   const bool windings = drive != "ideal_current";

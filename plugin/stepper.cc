@@ -535,6 +535,12 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
   // The consistent coupling solves every started coupled stepper of the model at once (C-3), in
   // one instance, the first of coupled_: it writes all their forces, once per step.
   const bool leader = !coupled_.empty() && coupled_.front().instance == instance;
+  RestartImplausible(m, d, instance);
+  if (leader) {  // the leader reads the other coupled instances' states before their Compute
+    for (const CoupledActuator& c : coupled_) {
+      if (c.instance != instance) FromData(d, c.instance).RestartImplausible(m, d, c.instance);
+    }
+  }
   for (size_t slot = 0; slot < actuators_.size(); ++slot) {
     const Actuator& a = actuators_[slot];
     // Torque from the currents at the step's start (as MuJoCo's dcmotor without actearly); the
@@ -863,6 +869,20 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
   }
 }
 
+void Stepper::RestartImplausible(const mjModel* m, mjData* d, int instance) const {
+  for (size_t slot = 0; slot < actuators_.size(); ++slot) {
+    mjtNum* values = Slot(m, d, instance, slot);
+    if (!Drive::Started(values) || drive_->Plausible(values)) continue;
+    const Actuator& a = actuators_[slot];
+    drive_->Store(drive_->Rest(d->time, d->actuator_length[a.outadr], Command(m, d, a, nullptr)),
+                  values);
+    WarnOnce(kCauseStatus + static_cast<unsigned>(AdvanceStatus::kBadState),
+             fmt::format("mjstepper: actuator '{}' (id {}) at time {:g} s: {}",
+                         NameOf(m, m->name_actuatoradr[a.id]), a.id, d->time,
+                         Describe(AdvanceStatus::kBadState)));
+  }
+}
+
 bool Stepper::WarnOnce(unsigned cause, const std::string& message) const {
   const unsigned bit = 1u << cause;
   if (warned_.fetch_or(bit) & bit) return false;
@@ -939,6 +959,19 @@ void Stepper::Advance(const mjModel* m, mjData* d, int instance) const {
       WarnOnce(kCauseStatus + static_cast<unsigned>(status),
                fmt::format("mjstepper: {} at time {:g} s (timestep {:g} s): {}", actuator_name(a),
                            t1, timestep, Describe(status)));
+    }
+    // Heat: beyond kMostLawTemperature R(T) and Km(T) are held at their values there (thermal.h);
+    // said once per instance with the temperature (issue 33: R read 11.22 Ω for ever, silently).
+    if (const std::optional<HeatParams>& heat = drive_->config().heat;
+        heat && state.winding_temperature > kMostLawTemperature) {
+      WarnOnce(kCauseLawRange,
+               fmt::format("mjstepper: {} at time {:g} s: winding temperature {:.1f} °C, beyond "
+                           "the {:g} °C to which R(T) and Km(T) are taken: they are held at their "
+                           "{:g} °C values (R = {:.4g} Ω) from here; a real winding burnt long "
+                           "before (its class: {:g} °C)",
+                           actuator_name(a), t1, state.winding_temperature, kMostLawTemperature,
+                           kMostLawTemperature, drive_->ResistanceAt(kMostLawTemperature),
+                           heat->insulation_limit));
     }
     // Heat: a winding past its insulation class is said once per actuator (SPEC §8).
     if (const std::optional<HeatParams>& heat = drive_->config().heat;

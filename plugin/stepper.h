@@ -148,7 +148,12 @@ class Stepper {
     kCauseBadTimestep = 8,     // timestep not a positive finite number
     kCauseManyInterrupts = 9,  // timestep raised past the load's interrupt bound
     kCauseSubsteppedRk4 = 10,  // integrator set to RK4 after a sub-stepped load
+    kCauseLawRange = 11,       // a winding beyond the temperatures R(T) and Km(T) are made for
   };
+  // Restarts at rest, in place, every started slot of `instance` whose stored state no step could
+  // have made (Drive::Plausible: a user's write, a corrupt file), warning once: before any force
+  // or signal is read from it (issue 33: ±1e300 applied its force for a step).
+  void RestartImplausible(const mjModel* m, mjData* d, int instance) const;
   // Warns `message` through mju_warning unless `cause` was reported already; true if it warned.
   bool WarnOnce(unsigned cause, const std::string& message) const;
   // Slot's rotor speed at the step's start, rad/s (the `omega` signal): MuJoCo's, `mujoco`

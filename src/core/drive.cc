@@ -222,6 +222,8 @@ Drive::Drive(DriveConfig config) : config_(std::move(config)) {
     winding_motor_ = motor;
     winding_motor_.detent.clear();
   }
+  current_bound_ = 20 * config_.bus_voltage / motor.resistance +
+                   10 * std::max(std::sqrt(2.0) * motor.rated_current, RestCurrentMagnitude());
 }
 
 DriveState Drive::Load(const double* values) const {
@@ -374,8 +376,9 @@ const char* Describe(AdvanceStatus status) {
       return "the rotor angle or the command is not finite or beyond 1e10; the drive is held "
              "unchanged";
     case AdvanceStatus::kBadState:
-      return "the drive's stored state held a value that is not finite; the drive restarted at "
-             "rest";
+      return "the drive's stored state held a value that is not finite or that no step makes (a "
+             "current, angle or temperature beyond Drive::Plausible's bounds); the drive "
+             "restarted at rest";
     case AdvanceStatus::kEventBound:
       return "the step holds more interrupts than one step may run (100000); the drive restarted "
              "at rest at the step's end";
@@ -1447,6 +1450,24 @@ double Drive::Torque(const DriveCoreState& s, double theta) const {
       Torques(s.handed_current(), RotorPhasor(s.started, s.theta, s.rotor_phasor(), theta),
               TorqueConstantAt(s.winding_temperature));
   return torque_em + torque_detent;
+}
+
+bool Drive::Plausible(const double* values) const {
+  using S = DriveCoreState;  // standard layout, all doubles: a field is values[offset / 8]
+  auto field = [values](std::size_t offset) { return values[offset / sizeof(double)]; };
+  auto within = [](double x, double bound) { return std::abs(x) <= bound; };  // NaN fails
+  constexpr double kLeastTemperature = -273.15, kMostTemperature = 1e6;       // °C
+  const double tw = field(offsetof(S, winding_temperature));
+  const double th = field(offsetof(S, housing_temperature));
+  return within(field(offsetof(S, theta)), 2 * kMaxCommand) &&
+         within(field(offsetof(S, theta_cmd)), 2 * kMaxCommand) &&
+         within(field(offsetof(S, rotor_cos)), 1.5) && within(field(offsetof(S, rotor_sin)), 1.5) &&
+         within(field(offsetof(S, current_a)) + field(offsetof(S, mean_offset_a)),
+                current_bound_) &&
+         within(field(offsetof(S, current_b)) + field(offsetof(S, mean_offset_b)),
+                current_bound_) &&
+         tw >= kLeastTemperature && tw <= kMostTemperature && th >= kLeastTemperature &&
+         th <= kMostTemperature;
 }
 
 Drive::StoredMotor Drive::ReadStored(const double* values, double theta) const {

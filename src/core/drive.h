@@ -390,6 +390,16 @@ class Drive {
     return values[offsetof(DriveCoreState, started) / sizeof(double)] != 0;
   }
   void Store(const DriveState& state, double* values) const;
+  /// Whether stored doubles could be a state this drive made (issue 33: ±1e300 written into a
+  /// simulator's state applied its force for a step before the drive restarted): the rotor, its
+  /// phasor and the currents finite and within bounds no step reaches (|i| within
+  /// current_bound(), the phasor's parts within 1.5, the temperatures within [−273.15, 1e6] °C).
+  /// A few comparisons: a simulator checks it before each step reads a force from the state.
+  bool Plausible(const double* values) const;
+  /// The largest |ia|, |ib| (A) a state may hold: 20·Vbus/R (a winding at a fifth of R, the least
+  /// R(T) heat allows, with back-EMF beside the bus) plus 10 times the largest current the drive
+  /// holds or is rated for.
+  double current_bound() const { return current_bound_; }
 
   /// Magnitude of the current vector the drive holds at rest, A: I_hold, Vmax/R in voltage mode,
   /// τl/Km for Kim's controllers, 0 for the servo modes.
@@ -494,6 +504,7 @@ class Drive {
   double velocity_gain_ = 0;                // its a = 1 − exp(−2π·fc·T), computed once
   std::vector<DecayKernel> decay_kernels_;  // for T, D and T − D, computed once
   double step_angle_ = 0;                   // rad per microstep (StepAngle)
+  double current_bound_ = 0;                // A (current_bound), at load
   RippleOffsets ripple_;                    // averaged chopper: its cycle's mean offset, at load
   LoopTransient loop_transient_;            // averaged PI loop: its transient's rate, cold
   std::optional<ThermalNetwork> thermal_;   // with heat: the network, decomposed once

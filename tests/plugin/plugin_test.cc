@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -765,6 +766,43 @@ std::string ShippedModel(const std::string& name) {
   std::stringstream text;
   text << file.rdbuf();
   return text.str();
+}
+
+// Issue 33: ±1e300 written into a started drive's plugin_state (finite, so the drive's own check
+// after the step found it only once it overflowed) applied its force for that step: a kick of
+// −2 880 rad/s. Now the state is restarted at rest before any force is read: the step's force is
+// at most the motor's holding torque (√2·Km·I = 0.57 N·m for the Tsui motor at 1.9 A... with the
+// detent, under 1 N·m), the rotor's speed changes by at most h·1 N·m/J, and one warning says so.
+TEST(StepperPlugin, GarbageInTheStateIsNeverAppliedAsAForce) {
+  for (const char* coupling : {"explicit", "consistent"}) {
+    std::string xml = ShippedModel("tsui_rigid.xml");
+    xml.insert(xml.find("</plugin>"), Config("coupling", coupling));
+    const ModelPtr m = LoadModel(xml);
+    ASSERT_TRUE(m);
+    const DataPtr d(mj_makeData(m.get()));
+    d->ctrl[0] = 10;  // rad/s
+    for (int k = 0; k < 400; ++k) mj_step(m.get(), d.get());
+    // The phase currents (DriveCoreState's current_a, current_b), the force's source.
+    const int adr = m->plugin_stateadr[0] + offsetof(DriveCoreState, current_a) / sizeof(double);
+    d->plugin_state[adr] = 1e300;
+    d->plugin_state[adr + 1] = -1e300;
+    const double speed = d->qvel[0];  // rad/s
+    CapturedWarnings warnings;
+    mj_step(m.get(), d.get());
+    EXPECT_LE(std::abs(d->actuator_force[0]), 1.0) << coupling;
+    std::vector<mjtNum> full(m->nv * m->nv);
+    mj_fullM(m.get(), d.get(), full.data());
+    const double inertia = full[0];  // kg·m², the rotor and its load
+    EXPECT_LE(std::abs(d->qvel[0] - speed), m->opt.timestep * 1.0 / inertia) << coupling;
+    // (Applied, the force made MuJoCo find a huge qacc and reset the simulation.)
+    EXPECT_EQ(d->warning[mjWARN_BADQACC].number, 0) << coupling;
+    // The state the step leaves is the drive's own again: its currents within 2 A (1.9 A peak).
+    EXPECT_LE(std::hypot(d->plugin_state[adr], d->plugin_state[adr + 1]), 2.0) << coupling;
+    ASSERT_EQ(warnings.ours().size(), 1u) << coupling;
+    EXPECT_THAT(warnings.ours()[0], AllOf(HasSubstr("actuator 'shaft' (id 0)"),
+                                          HasSubstr("the drive restarted at rest")));
+    EXPECT_TRUE(AllFinite(m.get(), d.get()));
+  }
 }
 
 // Issue 16's first reproduction: a keyframe at time NaN (the CLI's --keyframe nan). The event loop
