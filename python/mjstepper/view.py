@@ -144,11 +144,26 @@ class Plots:
                 for k, fig in enumerate(reversed(self.figures))]
 
 
+def _report_problem(path):
+    """Why `path` cannot take the report, or None: checked before any window opens (issue 33: a
+    directory, /dev/null, a link or a missing folder made the view hang or crash at its end)."""
+    if path == "":
+        return "an empty path"
+    if os.path.lexists(path) and not stat.S_ISREG(os.lstat(path).st_mode):
+        return "not a regular file (a folder, link, FIFO or device); outputs replace only those"
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        return f"its folder {folder} does not exist"
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return f"its folder {folder} is not writable"
+    return None
+
+
 def _write_whole(path, summary):
     """JSON into a new temporary beside `path`, renamed over it: never half-written, and only ever
     replacing a regular file (a link, FIFO or device is refused, as by the command)."""
-    if os.path.lexists(path) and not stat.S_ISREG(os.lstat(path).st_mode):
-        raise SystemExit(f"--report {path}: not a regular file; outputs replace only those")
+    if _report_problem(path) is not None:
+        raise SystemExit(f"--report {path}: {_report_problem(path)}")
     fd, temporary = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), suffix=".tmp")
     try:
         with os.fdopen(fd, "w") as f:
@@ -175,6 +190,8 @@ def main(argv=None):
         parser.error(f"--window {args.window}: must be in [0.1, 60] s")
     if args.duration is not None and not 0 < args.duration <= 1e6:
         parser.error(f"--duration {args.duration}: must be in (0, 1e6] s")
+    if args.report is not None and _report_problem(args.report) is not None:
+        parser.error(f"--report {args.report}: {_report_problem(args.report)}")
 
     model, names = load(args.model)
     if args.stepper is not None and args.stepper not in names:
@@ -200,9 +217,13 @@ def main(argv=None):
     mujoco.mj_forward(model, data)
     plots = Plots(model, args.window)
     drawn = 0
+    before = set(threading.enumerate())
     with mujoco.viewer.launch_passive(model, data) as viewer:
+        render = [t for t in threading.enumerate() if t not in before]  # the viewer's own thread
         start_wall, start_sim = time.monotonic(), data.time
         while viewer.is_running():
+            if render and not any(t.is_alive() for t in render):
+                break  # its window is gone without a close (the render thread ended)
             if args.duration is not None and data.time >= args.duration:
                 break
             selected = int(viewer.perturb.select)
@@ -235,22 +256,38 @@ def main(argv=None):
                 viewer.set_figures(plots.layout(viewer.viewport))
             viewer.sync()
             time.sleep(1 / 60)
+        failure = None
         if args.report:
             a = ids[current]
-            _write_whole(args.report, {"stepper": current, "time": data.time,
-                           "ctrl": float(data.ctrl[model.actuator_ctrladr[a]]),
-                           "ctrlrange": [float(x) for x in model.actuator_ctrlrange[a]],
-                           "speed": float(data.actuator_velocity[model.actuator_outadr[a]]),
-                           "mean_speed": float(np.mean([h[1] for h in plots.history
-                                                        if h[0] >= data.time - 0.5]) / RPM),
-                           "plotted_points": drawn})
-            time.sleep(float(os.environ.get("MJSTEPPER_VIEW_HOLD", "0")))  # a test's screenshot
+            try:
+                _write_whole(args.report, {
+                    "stepper": current, "time": data.time,
+                    "ctrl": float(data.ctrl[model.actuator_ctrladr[a]]),
+                    "ctrlrange": [float(x) for x in model.actuator_ctrlrange[a]],
+                    "speed": float(data.actuator_velocity[model.actuator_outadr[a]]),
+                    "mean_speed": float(np.mean([h[1] for h in plots.history
+                                                 if h[0] >= data.time - 0.5]) / RPM),
+                    "plotted_points": drawn})
+            except (OSError, SystemExit) as e:  # (the folder changed under the view)
+                failure = f"--report {args.report}: {e}"
+            else:
+                time.sleep(float(os.environ.get("MJSTEPPER_VIEW_HOLD", "0")))  # a screenshot
     # close() only asks the viewer's (daemon) thread to stop: wait until it has destroyed its
     # window, or it may still be doing so when glfw.terminate runs at exit (a segfault in GLFW).
+    # It takes milliseconds; one that has not within a second (its X server gone, a GL driver
+    # stuck) is left behind by a hard exit, the report already whole on disk: every exit path
+    # returns within a second (issue 33).
+    status = 0 if failure is None else 1
+    if failure is not None:
+        print(failure, file=sys.stderr)
+    deadline = time.monotonic() + 1.0
     for thread in threading.enumerate():
-        if thread is not threading.main_thread():
-            thread.join(timeout=30)
-    return 0
+        if thread is not threading.main_thread() and thread.daemon:
+            thread.join(timeout=max(0.0, deadline - time.monotonic()))
+            if thread.is_alive():
+                sys.stderr.flush()
+                os._exit(status)
+    return status
 
 
 if __name__ == "__main__":

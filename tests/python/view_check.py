@@ -54,6 +54,55 @@ class View(unittest.TestCase):
         self.assertGreater(yellow, 200)  # the line: about 700 pixels at 640×480
         self.assertLess(without, 5)
 
+    def test_a_bad_report_is_refused_before_any_window(self):
+        # Issue 33: a directory, /dev/null, a link or a missing folder as --report made the view
+        # hang (11 of 19 runs), crash (5) or fail only at its end.
+        model = os.path.join(SOURCE, "models", "tsui_rigid.xml")
+        folder = tempfile.mkdtemp()
+        link = os.path.join(folder, "link.json")
+        os.symlink(os.path.join(folder, "elsewhere.json"), link)
+        for report, words in ((folder, "not a regular file"), ("/dev/null", "not a regular file"),
+                              (link, "not a regular file"),
+                              (os.path.join(folder, "missing", "r.json"), "does not exist")):
+            start = time.monotonic()
+            result = subprocess.run([sys.executable, "-m", "mjstepper.view", model, "--duration",
+                                     "0.2", "--report", report],
+                                    capture_output=True, text=True, timeout=60)
+            self.assertEqual(result.returncode, 2, result.stderr)
+            self.assertIn(f"--report {report}: ", result.stderr)
+            self.assertIn(words, result.stderr)
+            self.assertLess(time.monotonic() - start, 20)  # no window was opened: an import's time
+        self.assertFalse(os.path.exists(os.path.join(folder, "elsewhere.json")))
+
+    def test_the_view_exits_when_its_x_server_goes(self):
+        # Issue 33: a view outlived its test by 40 minutes, its X server gone. Its own Xvfb here,
+        # killed under it: the view exits within seconds, whatever its status.
+        number = 100 + os.getpid() % 400
+        socket = f"/tmp/.X11-unix/X{number}"
+        xvfb = subprocess.Popen(["Xvfb", f":{number}", "-screen", "0", "640x480x24"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        view = None
+        try:
+            deadline = time.monotonic() + 20
+            while not os.path.exists(socket) and time.monotonic() < deadline:
+                time.sleep(0.1)
+            self.assertTrue(os.path.exists(socket), "Xvfb did not start")
+            view = subprocess.Popen(
+                [sys.executable, "-m", "mjstepper.view",
+                 os.path.join(SOURCE, "models", "tsui_rigid.xml")],
+                env={**os.environ, "DISPLAY": f":{number}"}, stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL)
+            time.sleep(5)  # its window up, stepping in real time
+            self.assertIsNone(view.poll(), "the view ended before its X server did")
+            xvfb.kill()
+            xvfb.wait(timeout=10)
+            view.wait(timeout=10)  # TimeoutExpired: it outlived its X server
+        finally:
+            for process in (view, xvfb):
+                if process is not None and process.poll() is None:
+                    process.kill()
+                    process.wait()
+
     def test_bounds_are_named_before_any_window(self):
         model = os.path.join(SOURCE, "models", "tsui_rigid.xml")
         for args, words in ((["--duration", "-1"], "--duration -1.0: must be in (0, 1e6] s"),
