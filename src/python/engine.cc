@@ -15,17 +15,23 @@
 #include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <exception>
 #include <initializer_list>
 #include <iostream>
+#include <optional>
 #include <span>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <type_traits>
 #include <variant>
 #include <vector>
 
+#include "cancel.h"
 #include "command.h"
 #include "installation.h"
 
@@ -327,18 +333,56 @@ struct Parsed {
   const Command* command = nullptr;
 };
 
+// Runs `work` (an experiment, the command) without the GIL on a thread of its own while the
+// caller's thread looks for Python's signals every kSignalPoll (issue 33: Ctrl-C waited for the
+// whole call, 13.5 s of a 200 s run, hours of a long one): a KeyboardInterrupt (or any signal
+// handler's exception) asks the experiment to stop at its next step (cancel.h), waits for it, and
+// is raised here. Its result, or its own exception.
+template <class Work>
+auto Interruptible(Work work) -> decltype(work()) {
+  constexpr auto kSignalPoll = std::chrono::milliseconds(50);
+  const CancelScope scope;
+  std::optional<decltype(work())> result;
+  std::exception_ptr error;
+  std::atomic<bool> done{false};
+  bool interrupted = false;
+  {
+    nb::gil_scoped_release release;  // other Python threads (and Ray's) run meanwhile
+    std::thread worker([&] {
+      try {
+        result.emplace(work());
+      } catch (...) {
+        error = std::current_exception();
+      }
+      done = true;
+    });
+    while (!done) {
+      std::this_thread::sleep_for(kSignalPoll);
+      if (interrupted) continue;
+      nb::gil_scoped_acquire acquire;
+      if (PyErr_CheckSignals() != 0) {  // the handler raised: its exception is set
+        interrupted = true;
+        RequestCancel();
+      }
+    }
+    worker.join();
+  }
+  if (interrupted) throw nb::python_error();  // the KeyboardInterrupt the handler set
+  if (error) std::rethrow_exception(error);
+  return std::move(*result);
+}
+
 nb::dict Compute(const std::vector<std::string>& args, bool keep_traces) {
   const Parsed parsed(args);
   Command c = *parsed.command;
   c.run.keep_traces = keep_traces;  // a run's per-step records, for Python (no command option)
   CheckOutputs(c);
   CheckPrograms(c);
-  Result result;
-  {
-    nb::gil_scoped_release release;  // other Python threads (and Ray's) run meanwhile
-    result = Execute(c, std::cerr);
-    WriteOutputs(c, result);
-  }
+  const Result result = Interruptible([&] {
+    Result r = Execute(c, std::cerr);
+    WriteOutputs(c, r);
+    return r;
+  });
   return ToPython(c, result);
 }
 
@@ -398,8 +442,8 @@ NB_MODULE(_engine, m) {
       [](const std::vector<std::string>& argv) {
         std::vector<const char*> pointers;
         for (const std::string& a : argv) pointers.push_back(a.c_str());
-        nb::gil_scoped_release release;
-        return Main(static_cast<int>(pointers.size()), pointers.data());
+        return Interruptible(
+            [&] { return Main(static_cast<int>(pointers.size()), pointers.data()); });
       },
       nb::arg("argv"), "The mjstepper command on argv (argv[0] the program's name); its status.");
   m.def("compute", &Compute, nb::arg("args"), nb::arg("keep_traces") = false,

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "cancel.h"
 #include "core/signals.h"
 #include "core/units.h"
 #include "options.h"
@@ -70,6 +71,7 @@ Identified Identify(const IdentifyOptions& o) {
     for (long k = 0; k < total; ++k) {
       d->ctrl[m->actuator_ctrladr[dyno]] = o.speeds[i];
       const double t = d->time;
+      ThrowIfCancelled();  // (cancel.h)
       mj_step(m, d);
       if (const std::string unstable = InstabilityMessage(d, t); !unstable.empty()) {
         throw std::runtime_error(unstable);

@@ -12,6 +12,7 @@
 #include <ostream>
 #include <stdexcept>
 
+#include "cancel.h"
 #include "csv_writer.h"
 #include "output_file.h"
 #include "stepper_model.h"
@@ -278,6 +279,7 @@ ResonanceResult RunResonanceTest(const ResonanceOptions& o, std::ostream& progre
       }
     }
     previous = next;
+    ThrowIfCancelled();  // (cancel.h)
     mj_step(m, d);
     if (const std::string unstable = InstabilityMessage(d, t); !unstable.empty()) {
       throw std::runtime_error(unstable);

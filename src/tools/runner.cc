@@ -17,6 +17,7 @@
 #include <stdexcept>
 #include <system_error>
 
+#include "cancel.h"
 #include "core/command_profile.h"
 #include "core/klipper_steps.h"
 #include "core/sensors/adxl345.h"
@@ -69,6 +70,7 @@ void Settle(mjModel* m, mjData* d, const std::vector<StepperActuator>& steppers,
                                : theta_start[i];
     }
     const double t = d->time;
+    ThrowIfCancelled();  // (cancel.h)
     mj_step(m, d);
     if (const std::string unstable = InstabilityMessage(d, t); !unstable.empty()) {
       for (int i = 0; i < 3; ++i) m->opt.gravity[i] = gravity[i];
@@ -346,6 +348,7 @@ RunResult Run(const RunOptions& given, std::ostream& progress) {
     static const int kCurrentB = SignalIndex("current_b");
     static const int kStallGuard = SignalIndex("stallguard");
     static const int kStall = SignalIndex("stall");
+    ThrowIfCancelled();  // (cancel.h)
     mj_step(m, d);
     // MuJoCo resets the whole simulation when qpos, qvel or qacc turn bad, and counts it: what
     // followed would be a run from qpos0 reported as this one.

@@ -12,6 +12,7 @@
 #include <span>
 #include <stdexcept>
 
+#include "cancel.h"
 #include "config.h"
 #include "core/attributes.h"
 #include "core/command_profile.h"
@@ -242,6 +243,7 @@ std::vector<std::vector<double>> InverseDynamicsDemand(const mjModel* m,
     out[i].reserve(times.size());
   }
   for (double t : times) {
+    ThrowIfCancelled();  // (cancel.h)
     mju_copy(d->qpos, start->qpos, m->nq);
     mju_zero(d->qvel, m->nv);
     mju_zero(d->qacc, m->nv);

@@ -21,6 +21,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "cancel.h"
 #include "config.h"
 #include "core/analysis.h"
 #include "core/command_profile.h"
@@ -51,6 +52,7 @@ struct SpeedRun {
     d->ctrl[s.ctrladr] = profile.ControlForStep(d->time, m->opt.timestep, s.config.input,
                                                 theta_start, StepAngle(s.config));
     const double t = d->time;
+    ThrowIfCancelled();  // (cancel.h)
     mj_step(m, d);
     if (const std::string unstable = InstabilityMessage(d, t); !unstable.empty()) {
       throw std::runtime_error(
