@@ -22,7 +22,6 @@ and the same on Ray: mjstepper.distributed.sweep and .map. `mjstepper` on the co
 """
 import difflib
 import functools
-import math
 import numbers
 import operator
 import os
@@ -238,34 +237,10 @@ class StepTimes:
 
     @classmethod
     def read(cls, path):
-        """Reads a step-time file; ValueError naming the file and line of a bad one."""
-        times, directions = [], []
-        with open(path) as f:
-            for number, line in enumerate(f, start=1):
-                text = line.strip()
-                if not text or text.startswith("#"):
-                    continue
-                fields = text.split()
-                try:
-                    if len(fields) > 2:
-                        raise ValueError("expected a time and at most a direction")
-                    if any("_" in field for field in fields):  # Python's float() takes 1_0e-3
-                        raise ValueError("a number without underscores, as the command reads it")
-                    time_s = float(fields[0])
-                    direction = float(fields[1]) if len(fields) == 2 else 1.0
-                    if not math.isfinite(time_s) or not 0 <= time_s <= 1e6:
-                        raise ValueError("a step time is a number of seconds in [0, 1e6]")
-                    if direction not in (1.0, -1.0):
-                        raise ValueError("the direction after the time is +1 or -1")
-                    if times and time_s < times[-1]:
-                        raise ValueError(f"step times must not decrease (the step before is at "
-                                         f"{times[-1]:g} s)")
-                except ValueError as e:
-                    raise ValueError(f"{path}:{number}: {text!r}: {e}") from None
-                times.append(time_s)
-                directions.append(direction)
-        if not times:
-            raise ValueError(f"{path}: no step times (one time in s per line)")
+        """Reads a step-time file with the command's own reader (steps(FILE); one reader of the
+        format): ValueError naming the file, the line and the rule of a bad one, a file that is
+        not a regular one, or one larger than the most it may hold."""
+        times, directions = _engine.read_step_times(os.fspath(path))
         return cls(times, directions)
 
     @property

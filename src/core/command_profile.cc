@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/attributes.h"  // Excerpt
 #include "core/units.h"
 
 namespace mjstepper {
@@ -53,8 +54,8 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole,
   const char* begin = t.data() + (!t.empty() && t[0] == '+' ? 1 : 0);
   const auto [ptr, ec] = std::from_chars(begin, t.data() + t.size(), v);
   if (ec != std::errc() || !std::isfinite(v)) {
-    throw std::invalid_argument(
-        fmt::format("profile \"{}\": \"{}\" is not a number with a unit", whole, t));
+    throw std::invalid_argument(fmt::format("profile \"{}\": \"{}\" is not a number with a unit",
+                                            Excerpt(whole), Excerpt(t)));
   }
   const std::string unit = Trim(std::string_view(ptr, t.data() + t.size() - ptr));
   Quantity q;
@@ -67,7 +68,7 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole,
           "or a tendon (θ = gear·x), or on a hinge whose <config> declares its carriage "
           "(pulley_teeth and belt_pitch, or lead); else give rad, deg, rpm, r/min, rad/s or "
           "rad/s²",
-          whole, t, unit));
+          Excerpt(whole), Excerpt(t), unit));
     }
     // rad, rad/s, or rad/s² (a rate: a negative gear turns the motion, not the rate)
     const double scale =
@@ -92,7 +93,7 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole,
         "profile \"{}\": \"{}\" needs a unit: rpm, r/min, rad/s, rad/s², rad, deg, s or ms (on "
         "a slide joint, a tendon or a hinge with a declared carriage also m, mm, m/s, mm/s, m/s², "
         "mm/s²)",
-        whole, t));
+        Excerpt(whole), Excerpt(t)));
   }
   const double bound = q.dim == Dim::kSpeed          ? kMaxProfileSpeed
                        : q.dim == Dim::kAngle        ? kMaxProfileAngle
@@ -103,8 +104,8 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole,
                            : q.dim == Dim::kAcceleration ? "rad/s²"
                                                          : "s";
   if (!(std::abs(q.value) <= bound)) {
-    throw std::invalid_argument(
-        fmt::format("profile \"{}\": \"{}\" is beyond ±{:g} {}", whole, t, bound, bound_unit));
+    throw std::invalid_argument(fmt::format("profile \"{}\": \"{}\" is beyond ±{:g} {}",
+                                            Excerpt(whole), Excerpt(t), bound, bound_unit));
   }
   return q;
 }
@@ -112,14 +113,15 @@ Quantity ParseQuantity(const std::string& text, std::string_view whole,
 // The time to change speed by `change` (rad/s) at `acceleration` (rad/s²), s.
 double RampTime(double change, double acceleration, std::string_view whole) {
   if (!(acceleration > 0)) {
-    throw std::invalid_argument(fmt::format(
-        "profile \"{}\": an acceleration must be > 0 (a rate, not a signed value)", whole));
+    throw std::invalid_argument(
+        fmt::format("profile \"{}\": an acceleration must be > 0 (a rate, not a signed value)",
+                    Excerpt(whole)));
   }
   const double time = std::abs(change) / acceleration;  // s
   if (!(time <= kMaxProfileTime)) {
     throw std::invalid_argument(
-        fmt::format("profile \"{}\": its acceleration takes {:g} s, beyond {:g} s", whole, time,
-                    kMaxProfileTime));
+        fmt::format("profile \"{}\": its acceleration takes {:g} s, beyond {:g} s", Excerpt(whole),
+                    time, kMaxProfileTime));
   }
   return time;
 }
@@ -134,7 +136,7 @@ CommandProfile CommandProfile::ParseShaped(const std::string& whole, const std::
     return std::invalid_argument(fmt::format(
         "profile \"{}\": {}; expected shaped(PROFILE, TYPE FREQUENCYHz [DAMPING]), e.g. "
         "shaped(trapezoid(200rpm, 0.2s, 0.5s, 0.2s), mzv 40Hz)",
-        whole, why));
+        Excerpt(whole), why));
   };
   if (comma == std::string::npos || inner.find(')', comma) != std::string::npos) {
     throw bad("no shaper after the profile");
@@ -188,7 +190,7 @@ CommandProfile CommandProfile::ParseTargets(const std::string& whole, const std:
     return std::invalid_argument(fmt::format(
         "profile \"{}\": {}; expected targets(ANGLE, ANGLE@TIME, …), times rising from 0, e.g. "
         "targets(0deg, 90deg@0.5s, 0deg@2s)",
-        whole, why));
+        Excerpt(whole), why));
   };
   std::vector<Target> targets;
   size_t start = 0;
@@ -225,6 +227,10 @@ CommandProfile CommandProfile::ParseTargets(const std::string& whole, const std:
 }
 
 CommandProfile CommandProfile::Parse(std::string_view text, std::optional<double> rad_per_metre) {
+  if (text.size() > kMaxProfileText) {  // before any work, or any copy (issue 33)
+    throw std::invalid_argument(
+        fmt::format("profile \"{}\": longer than {} characters", Excerpt(text), kMaxProfileText));
+  }
   const std::string whole(text);
   const size_t open = whole.find('(');
   const size_t close = whole.rfind(')');
@@ -233,7 +239,7 @@ CommandProfile CommandProfile::Parse(std::string_view text, std::optional<double
     throw std::invalid_argument(
         fmt::format("profile \"{}\": expected constant(…), ramp(…, …, …), trapezoid(…, …, …, …), "
                     "targets(…), steps(FILE) or shaped(PROFILE, SHAPER)",
-                    whole));
+                    Excerpt(whole)));
   }
   const std::string name = Trim(whole.substr(0, open));
   if (name == "shaped") {
@@ -247,7 +253,7 @@ CommandProfile CommandProfile::Parse(std::string_view text, std::optional<double
     if (nested > kMaxNestedShapers) {
       throw std::invalid_argument(fmt::format(
           "profile \"{}…\": {} shaped(…) nested, at most {} (each is a shaper in series)",
-          whole.substr(0, 40), nested, kMaxNestedShapers));
+          Excerpt(whole), nested, kMaxNestedShapers));
     }
     return ParseShaped(whole, whole.substr(open + 1, close - open - 1), rad_per_metre);
   }
@@ -270,7 +276,8 @@ CommandProfile CommandProfile::Parse(std::string_view text, std::optional<double
     start = comma + 1;
   }
   auto bad = [&](const char* expected) {
-    return std::invalid_argument(fmt::format("profile \"{}\": expected {}", whole, expected));
+    return std::invalid_argument(
+        fmt::format("profile \"{}\": expected {}", Excerpt(whole), expected));
   };
   CommandProfile p;
   p.text_ = whole;

@@ -52,6 +52,8 @@ inline constexpr size_t kMaxTargets = 100000;
 /// The most shaped(…) a profile may nest: two modes' shapers in series is the use; each level is
 /// parsed by a recursion over its inner text, which 6 000 levels overflowed (issue 33).
 inline constexpr size_t kMaxNestedShapers = 4;
+/// The longest profile text, characters: kMaxTargets targets of about 40 characters each.
+inline constexpr size_t kMaxProfileText = 4000000;
 
 class CommandProfile {
  public:

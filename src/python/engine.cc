@@ -33,6 +33,7 @@
 
 #include "cancel.h"
 #include "command.h"
+#include "core/step_times.h"
 #include "installation.h"
 
 namespace nb = nanobind;
@@ -434,6 +435,25 @@ NB_MODULE(_engine, m) {
   m.def("find_model", &FindModel, nb::arg("path"),
         "The model file `path` names: itself when a file, else the example model of that path or "
         "name; \"\" when neither (installation.h).");
+  m.def(
+      "read_step_times",
+      [](const std::string& path) {
+        // The command's reader (core/step_times.h), the one reader of the format (issue 33: a
+        // Python reader beside it took 1_0e-3, which this refuses).
+        StepTimes steps = [&] {
+          nb::gil_scoped_release release;
+          return StepTimes::Read(path);
+        }();
+        std::vector<double> times(steps.size()), directions(steps.size());
+        for (size_t k = 0; k < steps.size(); ++k) {
+          times[k] = steps.TimeAt(k);
+          directions[k] = steps.CountAt(k) - (k > 0 ? steps.CountAt(k - 1) : 0.0);
+        }
+        return nb::make_tuple(times, directions);
+      },
+      nb::arg("path"),
+      "A step-time file as steps(FILE) reads it: (times in s, directions ±1); ValueError naming "
+      "the file, the line and the rule.");
   m.def(
       "parse_speeds", [](const std::string& text) { return ParseSpeedList(text); }, nb::arg("text"),
       "A --speeds list (\"10:200:2.5rpm\", \"1,2rad/s\") in rad/s.");

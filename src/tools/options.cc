@@ -12,6 +12,8 @@
 #include "attach.h"
 #include "core/attributes.h"
 #include "core/command_profile.h"
+#include "core/klipper_steps.h"
+#include "core/step_times.h"
 #include "core/units.h"
 
 namespace mjstepper::tools {
@@ -49,6 +51,15 @@ constexpr OptionRange kRanges[] = {
     {"test-duration", 0.01, 3600, "s", "(max-freq − min-freq)/hz-per-sec: a resonance test"},
     {"accel-rate", 100, 3200, "Hz", "the ADXL345's output data rate (its range)"},
     {"accel-noise", 0, 1e5, "µg/√Hz", "the ADXL345's noise density (data sheet: 290 on X, Y)"},
+    // The parsers' own bounds (issue 33: bounded before any work), from the constants the parsers
+    // read (core/command_profile.h, core/step_times.h, core/klipper_steps.h).
+    {"profile-text", 1, kMaxProfileText, "characters", "a --ctrl profile's text"},
+    {"targets", 1, kMaxTargets, "targets", "a targets(…) profile's targets"},
+    {"shaped-depth", 1, kMaxNestedShapers, "levels", "shaped(…) nested in a profile"},
+    {"step-file", 1, kMaxStepFileBytes, "bytes", "a steps(FILE) list's file (a regular file)"},
+    {"step-times", 1, kMaxStepTimes, "steps", "a steps(FILE) list's steps"},
+    {"step-line", 0, kMaxStepLine, "characters", "a line of a steps(FILE) list"},
+    {"klipper-lines", 1, kMaxKlipperDumpLines, "lines", "a --klipper dump's MCU commands"},
 };
 
 // The units a joint value may carry: SI per unit, the quantity, and whether it is linear.

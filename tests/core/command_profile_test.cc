@@ -290,5 +290,28 @@ TEST(CommandProfile, TargetsHoldEachAngleFromItsTime) {
   EXPECT_THAT(error("targets(0rad, 1rad@-1s)"), HasSubstr("must be >= 0 s"));
 }
 
+// Issue 33: the text's length is bounded before any work, and every message quotes a bounded
+// excerpt (a 100 001-target profile gave a 2.7 MB message).
+TEST(CommandProfile, TextAndMessagesAreBounded) {
+  auto error = [](const std::string& text) {
+    try {
+      CommandProfile::Parse(text);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string huge = "constant(" + std::string(kMaxProfileText, '1') + "rpm)";
+  const std::string long_error = error(huge);
+  EXPECT_THAT(long_error, HasSubstr("longer than 4000000 characters"));
+  EXPECT_LT(long_error.size(), 300u);
+  std::string targets = "targets(0rad";
+  for (size_t k = 1; k <= kMaxTargets; ++k) targets += fmt::format(", {}rad@{}s", k, k);
+  targets += ")";
+  const std::string many = error(targets);
+  EXPECT_THAT(many, HasSubstr("100000"));
+  EXPECT_LT(many.size(), 400u);
+  EXPECT_THAT(error(std::string("constant(\x1b[2J1rpm)")), Not(HasSubstr("\x1b")));
+}
 }  // namespace
 }  // namespace mjstepper

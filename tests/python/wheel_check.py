@@ -318,7 +318,8 @@ class OneEngine(unittest.TestCase):
 
     def test_step_times_refuse_what_the_command_refuses(self):
         # issue 33: count(nan) gave the final count; a broadcast 1e9-element view was copied
-        # before the size check; read() took 1_0e-3, which the command's reader refuses.
+        # before the size check; read() took 1_0e-3, which the command's reader refuses: read() is
+        # now that reader (one reader per format), files that are no regular ones included.
         steps = mjstepper.StepTimes([0.1, 0.2, 0.3])
         self.assertEqual(steps.count(0.25), 2)
         with self.assertRaisesRegex(ValueError, "NaN"):
@@ -328,8 +329,10 @@ class OneEngine(unittest.TestCase):
         path = os.path.join(os.getcwd(), "underscore.txt")
         with open(path, "w") as f:
             f.write("0.001\n1_0e-3\n")
-        with self.assertRaisesRegex(ValueError, "underscore.txt:2: .*without underscores"):
+        with self.assertRaisesRegex(ValueError, "underscore.txt:2: .*a step time is a number"):
             mjstepper.StepTimes.read(path)
+        with self.assertRaisesRegex(ValueError, "/dev/zero: not a regular file"):
+            mjstepper.StepTimes.read("/dev/zero")
 
     def test_a_bool_is_only_a_flag(self):
         # issue 33: run(model, True) gave --duration no value, and the command read "--quiet" as
