@@ -440,9 +440,9 @@ NB_MODULE(_engine, m) {
       [](const std::string& path) {
         // The command's reader (core/step_times.h), the one reader of the format (issue 33: a
         // Python reader beside it took 1_0e-3, which this refuses).
-        StepTimes steps = [&] {
+        mjstepper::StepTimes steps = [&] {
           nb::gil_scoped_release release;
-          return StepTimes::Read(path);
+          return mjstepper::StepTimes::Read(path);
         }();
         std::vector<double> times(steps.size()), directions(steps.size());
         for (size_t k = 0; k < steps.size(); ++k) {
