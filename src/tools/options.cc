@@ -141,9 +141,11 @@ std::vector<double> ParseSpeedList(const std::string& text, const std::string& o
         at_carriage != nullptr ? " (the rotor), or mm/s, m/s (a linear axis's carriage)" : ""));
   }
   if (at_carriage != nullptr) *at_carriage = linear;
-  const double si = unit == "rad/s" || unit == "m/s" ? 1.0
-                    : unit == "mm/s"                 ? 1e-3
-                                                     : RpmToRadPerSec(1.0);
+  // In SI (rad/s at the rotor, m/s at the carriage), each as its own conversion rounds it (the
+  // r/min one as RpmToRadPerSec, so that a list gives the speeds it always gave, bit for bit).
+  auto to_si = [&unit](double v) {
+    return unit == "rpm" || unit == "r/min" ? RpmToRadPerSec(v) : unit == "mm/s" ? v * 1e-3 : v;
+  };
   const OptionRange& bound = Range("speed");
   auto speed = [&](std::string_view number) {
     double v = 0;
@@ -151,7 +153,7 @@ std::vector<double> ParseSpeedList(const std::string& text, const std::string& o
       throw std::invalid_argument(fmt::format("{} {}: \"{}\" is not a finite number", option, shown,
                                               Excerpt(std::string(number))));
     }
-    v *= si;
+    v = to_si(v);
     if (!(v >= bound.lo && v <= bound.hi)) {
       RequireInRange(option, bound, v, fmt::format("{} ({}{})", shown, number, unit));
     }
