@@ -20,7 +20,7 @@ struct RenderSession::History {
 };
 
 TableText StepperTable(const StepperActuator& stepper, const StepperSample& last,
-                       const OverlayLayout& layout, const FontMetrics& font) {
+                       const OverlayLayout& layout, const FontMetrics& font, double rad_per_metre) {
   // The third line: a drive with StallGuard shows SG_RESULT and its stall flag (issue 32, item 4:
   // a homing video could not show the detection); any other its detent damping.
   std::string third_label = "damping", third = "none";
@@ -32,19 +32,23 @@ TableText StepperTable(const StepperActuator& stepper, const StepperSample& last
     third = "h";
     for (const DetentHarmonic& h : comp->harmonics) third += fmt::format(" {}", h.order);
   }
-  return {{"stepper", "drive", third_label, "cmd", "speed", "load", "lost"},
-          {FitText(stepper.name, layout.value_width, font),
-           FitText(ControllerName(stepper.config.controller), layout.value_width, font),
-           FitText(third, layout.value_width, font),
-           fmt::format("{:.1f} r/min", RadPerSecToRpm(last.omega_cmd)),
-           fmt::format("{:.1f} r/min", RadPerSecToRpm(last.omega_cmd + last.velocity_error)),
-           fmt::format("{:+.3f} el. rad", last.load_angle),
-           fmt::format("{:+.0f} steps", last.lost_steps + 0.0)}};
+  auto speed = [rad_per_metre](double omega) {  // rad/s at the rotor
+    return rad_per_metre != 0 ? fmt::format("{:.1f} mm/s", 1e3 * omega / rad_per_metre)
+                              : fmt::format("{:.1f} r/min", RadPerSecToRpm(omega));
+  };
+  return {
+      {"stepper", "drive", third_label, "cmd", "speed", "load", "lost"},
+      {FitText(stepper.name, layout.value_width, font),
+       FitText(ControllerName(stepper.config.controller), layout.value_width, font),
+       FitText(third, layout.value_width, font), speed(last.omega_cmd),
+       speed(last.omega_cmd + last.velocity_error), fmt::format("{:+.3f} el. rad", last.load_angle),
+       fmt::format("{:+.0f} steps", last.lost_steps + 0.0)}};
 }
 
 RenderSession::RenderSession(const mjModel* m, const std::vector<StepperActuator>& steppers,
                              const RenderOptions& options)
     : model_(m), steppers_(steppers), options_(options), history_(steppers.size()) {
+  for (const StepperActuator& s : steppers) rad_per_metre_.push_back(RadPerMetre(m, s).value_or(0));
   RequireInRange("--fps", Range("fps"), options.fps);
   RequireInRange("--playback", Range("playback"), options.playback);
   if (options.overlay_steppers.empty()) {
@@ -121,7 +125,7 @@ void RenderSession::RenderFrame(double frame_time, mjData* d) {
       const History& hist = history_[index];
       const TableText table = StepperTable(
           steppers_[index], hist.samples.empty() ? StepperSample{} : hist.samples.back(), layout_,
-          renderer_->font());
+          renderer_->font(), rad_per_metre_[index]);
       renderer_->DrawTable(slot.table, fmt::format("{}", fmt::join(table.labels, "\n")),
                            fmt::format("{}", fmt::join(table.values, "\n")));
       const auto begin =

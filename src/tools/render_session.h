@@ -34,9 +34,12 @@ struct StepperSample {
 };
 
 /// A stepper's table as the overlay draws it (labels, values), its name and drive fitted to the
-/// layout's column widths.
+/// layout's column widths; a linear axis's (`rad_per_metre`, the rotor's rad per m of its
+/// carriage, RadPerMetre; 0: rotary) command and speed in mm/s at the carriage (README, "Linear
+/// axes").
 TableText StepperTable(const StepperActuator& stepper, const StepperSample& last,
-                       const OverlayLayout& layout, const FontMetrics& font);
+                       const OverlayLayout& layout, const FontMetrics& font,
+                       double rad_per_metre = 0);
 
 class RenderSession {
  public:
@@ -65,6 +68,7 @@ class RenderSession {
   RenderOptions options_;
   std::vector<int> overlay_;  // indices into steppers_
   std::vector<History> history_;
+  std::vector<double> rad_per_metre_;  // per stepper (StepperTable), at construction
   std::unique_ptr<OffscreenRenderer> renderer_;
   std::optional<VideoWriter> video_;
   std::unique_ptr<mjvFigure> figure_;

@@ -572,6 +572,24 @@ TEST(RenderLayout, AStallGuardDriveShowsItsResultAndStallFlag) {
   EXPECT_EQ(table.values[2], "none");
 }
 
+// Issue 32, item 3: a linear axis's table gives its command and speed in mm/s at the carriage
+// (models/belt_axis.xml: 40 mm per turn, 150 r/min is 100 mm/s), and still fits its rectangle.
+TEST(RenderLayout, ALinearAxisShowsMillimetresPerSecond) {
+  const StepperModel belt = LoadStepperModel(MJSTEPPER_SOURCE_DIR "/models/belt_axis.xml");
+  OffscreenRenderer renderer(belt.model.get(), {.width = 640, .height = 480, .camera = ""});
+  const OverlayLayout layout = LayOutOverlay(640, 480, 1, renderer.font());
+  const double rad_per_metre = *RadPerMetre(belt.model.get(), belt.steppers[0]);
+  const StepperSample moving{.omega_cmd = RpmToRadPerSec(150), .velocity_error = -0.0157};
+  TableText table = StepperTable(belt.steppers[0], moving, layout, renderer.font(), rad_per_metre);
+  EXPECT_EQ(table.values[3], "100.0 mm/s");
+  EXPECT_EQ(table.values[4], "99.9 mm/s");
+  const StepperSample fastest{.omega_cmd = -1000};  // rad/s: −9 549 r/min, −6.4 m/s
+  table = StepperTable(belt.steppers[0], fastest, layout, renderer.font(), rad_per_metre);
+  EXPECT_LE(TableSize(table, renderer.font()).width, layout.pages[0][0].table.width);
+  table = StepperTable(belt.steppers[0], moving, layout, renderer.font());  // a rotary one
+  EXPECT_EQ(table.values[3], "150.0 r/min");
+}
+
 // Issue 32, item 4: the plots' y ticks are fixed point with two significant digits (MuJoCo's
 // "%.2g" printed 150 r/min as "1.5e+02"), never wider than the layout allows; time ticks say "s".
 TEST(RenderLayout, TickLabelsAreFixedPointWithTwoDigitsAndFit) {
