@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -19,6 +20,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "cancel.h"
 #include "runner.h"
 #include "stepper_model.h"
 
@@ -342,5 +344,52 @@ TEST(Size, JointValuesKeepTheirUnits) {
   EXPECT_THAT(error("1e300deg", JointQuantity::kPosition, false), HasSubstr("beyond"));
 }
 
+// An ostream that asks the experiment under way to stop once `marker` has been written to it.
+class CancelOn : public std::streambuf {
+ public:
+  explicit CancelOn(std::string marker) : marker_(std::move(marker)) {}
+  const std::string& text() const { return text_; }
+
+ protected:
+  int overflow(int c) override {
+    if (c != traits_type::eof()) Take(std::string(1, static_cast<char>(c)));
+    return c;
+  }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    Take(std::string(s, static_cast<size_t>(n)));
+    return n;
+  }
+
+ private:
+  void Take(const std::string& more) {
+    text_ += more;
+    if (text_.find(marker_) != std::string::npos) RequestCancel();
+  }
+  std::string marker_, text_;
+};
+
+// Issue 33: a sizing of 5 000 waypoints ran for minutes without a word. Its cycle's wall time is
+// estimated before it runs, and said even without progress when over a minute: here arm6's
+// 5 000 poses (about an hour of simulated time), stopped by the test once it is said.
+TEST(Size, ALongCycleIsEstimatedBeforeItRuns) {
+  SizeOptions o;
+  o.run.model = MJSTEPPER_SOURCE_DIR "/models/arm6.xml";
+  o.run.progress = false;
+  o.run.allow_coarse = true;
+  std::string poses = "30deg";
+  for (int k = 1; k < 5000; ++k) poses += k % 2 == 0 ? ",30deg" : ",0deg";
+  o.moves["j2"] = poses;
+  CancelOn said("Ctrl-C stops it");
+  std::ostream progress(&said);
+  const auto start = std::chrono::steady_clock::now();
+  {
+    const CancelScope scope;
+    EXPECT_THROW(Size(o, progress), Cancelled);
+  }
+  { const CancelScope clear; }  // (the request must not reach the tests after this one)
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 30);
+  EXPECT_THAT(said.text(), HasSubstr("5000 poses"));
+  EXPECT_THAT(said.text(), HasSubstr("s of wall time for the cycle alone"));
+}
 }  // namespace
 }  // namespace mjstepper::tools
