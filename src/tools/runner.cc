@@ -32,6 +32,10 @@
 namespace mjstepper::tools {
 namespace {
 
+// Runs of more steps than this are estimated before they start (SayEstimate); a shorter one
+// takes seconds at the slowest model here.
+constexpr long kEstimatedSteps = 100000;
+
 // Whether gravity loads a stepper at the state's pose: a generalised gravity force (qfrc_bias at
 // rest) along any stepper's moment row.
 bool GravityLoadsAStepper(const mjModel* m, const mjData* d, const StepperModel& sm) {
@@ -314,6 +318,11 @@ RunResult Run(const RunOptions& given, std::ostream& progress) {
                  fmt::format("{:g} (at the model's timestep {:g} s, {:g} steps)", options.duration,
                              h, step_count));
   const long steps = static_cast<long>(step_count);
+  // Estimated before it runs (stepper_model.h; a short run never is long: not probed).
+  if (steps > kEstimatedSteps) {
+    SayEstimate(progress, options.progress, fmt::format("run: {} steps", steps),
+                static_cast<double>(steps) * WallTimePerStep(m, d));
+  }
   RunResult result;
   result.steppers.resize(sm.steppers.size());
   if (options.keep_traces) result.traces.resize(sm.steppers.size());

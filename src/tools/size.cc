@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -189,24 +188,6 @@ double Margin(double torque, double pullout) {
 // follow its drive's plan exactly: the steppers' joints on their plans (MotionProfile, fed each
 // step's ctrl as the drive is), every other dof held at `start`'s pose, through mj_inverse;
 // qfrc_inverse/gear. Empty for a stepper that is not on a hinge or slide joint.
-// The steps a sizing times to estimate its cycle's wall time, and the estimate above which it is
-// said even without progress, s.
-constexpr int kProbeSteps = 50;
-constexpr double kLongJob = 60;
-
-// The wall time (s) of `duration` s of the model from `start`'s pose (an mjData of the model
-// before the sizing's overrides, whose plugin state may be laid out otherwise: only its qpos is
-// taken), from kProbeSteps steps.
-double EstimatedWallTime(const mjModel* m, const mjData* start, double duration) {
-  DataPtr d(mj_makeData(m));
-  mju_copy(d->qpos, start->qpos, m->nq);
-  mj_forward(m, d.get());
-  const auto begin = std::chrono::steady_clock::now();
-  for (int k = 0; k < kProbeSteps; ++k) mj_step(m, d.get());
-  const std::chrono::duration<double> spent = std::chrono::steady_clock::now() - begin;
-  return spent.count() / kProbeSteps * (duration / m->opt.timestep);
-}
-
 // Whether `joint` is in a fixed tendon with a spring (a compliant belt, models/belt_axis.xml): the
 // far end's dofs are not on any plan, and held at the start pose they would stretch the belt by
 // the whole move, so such a joint's demand is the simulated motor torque, as a tendon's.
@@ -463,17 +444,15 @@ SizeResult Size(const SizeOptions& o, std::ostream& progress) {
     }
     run.ctrl[sm.steppers[i].name] = text + ")";
   }
-  // The cycle's wall time, estimated before it runs from kProbeSteps steps of the model (issue
-  // 33: 5 000 waypoints ran for minutes without a word): said with the progress, and even without
-  // it when the cycle alone would take more than kLongJob.
-  const double estimate = EstimatedWallTime(m, data0.get(), result.cycle_time);  // s
-  if (o.run.progress || estimate > kLongJob) {
-    fmt::print(progress,
-               "size: one cycle of {:.3f} s ({} poses) at the model's timestep {:g} s: {:.0f} "
-               "steps, about {:.0f} s of wall time for the cycle alone{}\n",
-               result.cycle_time, poses, m->opt.timestep, result.cycle_time / m->opt.timestep,
-               estimate, o.run.progress ? "" : " (Ctrl-C stops it)");
+  if (o.run.progress) {
+    fmt::print(progress, "size: one cycle of {:.3f} s ({} poses) at the model's timestep {:g} s\n",
+               result.cycle_time, poses, m->opt.timestep);
   }
+  // Estimated before it runs (stepper_model.h), the cycle alone (the benches are one rotor each).
+  const double cycle_steps = result.cycle_time / m->opt.timestep;
+  SayEstimate(progress, o.run.progress,
+              fmt::format("size: the cycle of {} poses, {:.0f} steps", poses, cycle_steps),
+              cycle_steps * WallTimePerStep(m, data0.get()));
   if (run.render.enabled()) {
     const double frames = std::floor(run.duration * run.render.fps / run.render.playback) + 1;
     RequireInRange("the cycle · --fps / --playback", Range("frames"), frames,

@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -252,6 +253,24 @@ std::optional<double> RadPerMetre(const mjModel* m, const StepperActuator& s) {
   const double radius = s.config.transmission.MetresPerRadian();  // m per rad of the hinge
   if (radius > 0) return Gear(m, s) / radius;
   return std::nullopt;
+}
+
+double WallTimePerStep(const mjModel* m, const mjData* pose) {
+  constexpr int kProbeSteps = 50;
+  DataPtr d(mj_makeData(m));
+  mju_copy(d->qpos, pose->qpos, m->nq);
+  mj_forward(m, d.get());
+  const auto begin = std::chrono::steady_clock::now();
+  for (int k = 0; k < kProbeSteps; ++k) mj_step(m, d.get());
+  const std::chrono::duration<double> spent = std::chrono::steady_clock::now() - begin;
+  return spent.count() / kProbeSteps;
+}
+
+void SayEstimate(std::ostream& out, bool progress, const std::string& what, double seconds) {
+  if (!progress && !(seconds > kLongJob)) return;
+  fmt::print(out, "{}: about {} s of wall time{}\n", what,
+             seconds < 10 ? fmt::format("{:.1f}", seconds) : fmt::format("{:.0f}", seconds),
+             progress ? "" : " (Ctrl-C stops it)");
 }
 
 std::optional<Carriage> CarriageOf(const mjModel* m, const StepperActuator& s) {

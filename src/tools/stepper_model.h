@@ -158,6 +158,16 @@ TimestepVerdict CheckTimestep(const StepperModel& sm, int key = -1);
 void ApplyTimestepRule(const StepperModel& sm, int key, const std::string& subject,
                        bool allow_coarse, std::ostream& out);
 
+/// Long jobs are estimated before they run (issue 33: a sizing of 5 000 waypoints ran for minutes
+/// without a word): a job's wall time is its steps times WallTimePerStep, and an estimate above
+/// kLongJob (s) is said even without progress, with how to stop it.
+inline constexpr double kLongJob = 60;
+/// Seconds of wall time per step of `m` from the pose of `pose` (an mjData of a model with the
+/// same joints: only its qpos is read), timed over 50 steps of a fresh mjData.
+double WallTimePerStep(const mjModel* m, const mjData* pose);
+/// "WHAT: about N s of wall time" to `out` when `progress`, or when `seconds` > kLongJob.
+void SayEstimate(std::ostream& out, bool progress, const std::string& what, double seconds);
+
 /// A switching chopper's fastest steady cycle, Hz (averaged_bridge.h's FastestCycle: its own rules
 /// on a linear cycle, a tenth to all of its peak, drops within ±Vbus/2); 0 for any other drive and
 /// for fidelity = averaged.

@@ -247,6 +247,32 @@ void AtCarriage(const mjModel* m, const StepperActuator& s, Point* p) {
   if constexpr (requires { p->force; }) p->force = p->torque * std::abs(*rad_per_metre);
 }
 
+// The simulated seconds of one speed's run (SpeedRun: the ramp, then the settling and the
+// measured window, or the load's rise to max_torque).
+double RunSeconds(double speed, const SweepOptions& o) {
+  return std::abs(speed) / o.acceleration + o.settle + o.measure;
+}
+double RunSeconds(double speed, const PullOutOptions& o) {
+  return std::abs(speed) / o.acceleration + o.settle + o.max_torque / o.rate;
+}
+
+// Says the wall time of the runs over `speeds` on the workers ParallelFor takes, estimated
+// before they start (stepper_model.h's SayEstimate: with the progress, or when long).
+template <class Options>
+void Estimate(const mjModel* m, const std::vector<double>& speeds, const Options& o,
+              const std::string& what, std::ostream& progress, size_t repeats = 1) {
+  double seconds = 0;  // simulated
+  for (double speed : speeds) seconds += RunSeconds(speed, o);
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const double workers = static_cast<double>(
+      std::min<size_t>(o.threads > 0 ? o.threads : cores, std::max<size_t>(1, speeds.size())));
+  DataPtr d(mj_makeData(m));
+  SayEstimate(progress, o.progress,
+              fmt::format("{}: {} runs, {:.0f} s simulated", what, speeds.size() * repeats,
+                          seconds * repeats),
+              seconds * repeats / m->opt.timestep * WallTimePerStep(m, d.get()) / workers);
+}
+
 // run(model, stepper, speed, options) for each of the options' speeds, on all cores.
 template <class Point, class Options, class Run, class Check>
 std::vector<Point> OverSpeeds(const Options& o, const char* what, std::ostream& progress, Run run,
@@ -265,6 +291,7 @@ std::vector<Point> OverSpeeds(const Options& o, const char* what, std::ostream& 
   const StepperActuator& target = FindTarget(sm, o.actuator, o.model);
   const std::vector<double> speeds =
       RotorSpeeds(sm.model.get(), target, o.speeds, o.speeds_at_carriage);
+  Estimate(sm.model.get(), speeds, o, what, progress);
   std::vector<Point> points(speeds.size());
   ParallelFor(speeds.size(), o.threads, o.progress, what, progress, [&](size_t i) {
     points[i] = run(sm.model.get(), target, speeds[i], o);
@@ -393,6 +420,7 @@ std::vector<MapPoint> Map(const MapOptions& o, std::ostream& progress) {
   const std::vector<double> speeds =
       RotorSpeeds(sm.model.get(), target, s.speeds, s.speeds_at_carriage);
   const size_t n = speeds.size();
+  Estimate(sm.model.get(), speeds, s, "map", progress, o.values.size());
   std::vector<MapPoint> points(o.values.size() * n);
   ParallelFor(points.size(), s.threads, s.progress, "map", progress, [&](size_t i) {
     points[i] = {.value = o.values[i / n],

@@ -23,6 +23,7 @@
 #include "cancel.h"
 #include "runner.h"
 #include "stepper_model.h"
+#include "sweep.h"
 
 namespace mjstepper::tools {
 namespace {
@@ -389,7 +390,35 @@ TEST(Size, ALongCycleIsEstimatedBeforeItRuns) {
   { const CancelScope clear; }  // (the request must not reach the tests after this one)
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 30);
   EXPECT_THAT(said.text(), HasSubstr("5000 poses"));
-  EXPECT_THAT(said.text(), HasSubstr("s of wall time for the cycle alone"));
+  EXPECT_THAT(said.text(), HasSubstr("s of wall time (Ctrl-C stops it)"));
+}
+
+// Issue 33: sweeps and runs are estimated before they start too, and a long one says so without
+// progress (Python's default): 1e5 speeds of the Tsui rotor (about 1e5 s simulated), a run of
+// 1e5 s; each stopped by the test once it is said.
+TEST(Size, LongSweepsAndRunsAreEstimatedBeforeTheyStart) {
+  SweepOptions sweep;
+  sweep.model = MJSTEPPER_SOURCE_DIR "/models/tsui_rigid.xml";
+  sweep.progress = false;
+  for (int k = 0; k < 100000; ++k) sweep.speeds.push_back(10 + 0.001 * k);  // rad/s
+  RunOptions run;
+  run.model = sweep.model;
+  run.duration = 1e5;
+  run.progress = false;
+  for (const char* what : {"sweep: 100000 runs", "run: 2000000000 steps"}) {
+    CancelOn said("Ctrl-C stops it");
+    std::ostream progress(&said);
+    {
+      const CancelScope scope;
+      if (what[0] == 's') {
+        EXPECT_THROW(Sweep(sweep, progress), Cancelled);
+      } else {
+        EXPECT_THROW(tools::Run(run, progress), Cancelled);
+      }
+    }
+    { const CancelScope clear; }
+    EXPECT_THAT(said.text(), HasSubstr(what));
+  }
 }
 }  // namespace
 }  // namespace mjstepper::tools
