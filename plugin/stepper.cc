@@ -537,7 +537,10 @@ void Stepper::Compute(const mjModel* m, mjData* d, int instance, int capability)
   const bool leader = !coupled_.empty() && coupled_.front().instance == instance;
   RestartImplausible(m, d, instance);
   if (leader) {  // the leader reads the other coupled instances' states before their Compute
+    int checked = instance;  // an instance repeated in a row once (a second check finds nothing)
     for (const CoupledActuator& c : coupled_) {
+      if (c.instance == checked) continue;
+      checked = c.instance;
       if (c.instance != instance) FromData(d, c.instance).RestartImplausible(m, d, c.instance);
     }
   }

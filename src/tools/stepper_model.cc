@@ -258,7 +258,7 @@ std::optional<double> RadPerMetre(const mjModel* m, const StepperActuator& s) {
 double WallTimePerStep(const mjModel* m, const mjData* pose) {
   constexpr int kProbeSteps = 50;
   DataPtr d(mj_makeData(m));
-  mju_copy(d->qpos, pose->qpos, m->nq);
+  if (pose != nullptr) mju_copy(d->qpos, pose->qpos, m->nq);
   mj_forward(m, d.get());
   const auto begin = std::chrono::steady_clock::now();
   for (int k = 0; k < kProbeSteps; ++k) mj_step(m, d.get());

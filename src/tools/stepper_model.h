@@ -163,8 +163,8 @@ void ApplyTimestepRule(const StepperModel& sm, int key, const std::string& subje
 /// kLongJob (s) is said even without progress, with how to stop it.
 inline constexpr double kLongJob = 60;
 /// Seconds of wall time per step of `m` from the pose of `pose` (an mjData of a model with the
-/// same joints: only its qpos is read), timed over 50 steps of a fresh mjData.
-double WallTimePerStep(const mjModel* m, const mjData* pose);
+/// same joints: only its qpos is read; none: qpos0), timed over 50 steps of a fresh mjData.
+double WallTimePerStep(const mjModel* m, const mjData* pose = nullptr);
 /// "WHAT: about N s of wall time" to `out` when `progress`, or when `seconds` > kLongJob.
 void SayEstimate(std::ostream& out, bool progress, const std::string& what, double seconds);
 

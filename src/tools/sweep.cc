@@ -266,11 +266,10 @@ void Estimate(const mjModel* m, const std::vector<double>& speeds, const Options
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
   const double workers = static_cast<double>(
       std::min<size_t>(o.threads > 0 ? o.threads : cores, std::max<size_t>(1, speeds.size())));
-  DataPtr d(mj_makeData(m));
   SayEstimate(progress, o.progress,
               fmt::format("{}: {} runs, {:.0f} s simulated", what, speeds.size() * repeats,
                           seconds * repeats),
-              seconds * repeats / m->opt.timestep * WallTimePerStep(m, d.get()) / workers);
+              seconds * repeats / m->opt.timestep * WallTimePerStep(m) / workers);
 }
 
 // run(model, stepper, speed, options) for each of the options' speeds, on all cores.

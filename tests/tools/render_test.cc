@@ -438,6 +438,33 @@ TEST(RenderGauge, ArrowAsVisibleFromBelowAsFromAbove) {
   EXPECT_GT(below, 0.8 * above);
 }
 
+// Where a world point lands in a w×h frame drawn from `scene`'s camera, as mjr_render draws it
+// (without stereo, from the average of the two eyes, which sit ipd/2 either side of the camera):
+// x and y from −1 to 1 across the frame, and the depth along the view (> 0: in front).
+struct FrameProjection {
+  FrameProjection(const mjModel* m, const mjvScene& scene, int w, int h) {
+    const mjvGLCamera& c = scene.camera[0];
+    for (int i = 0; i < 3; ++i) {
+      eye[i] = 0.5 * (scene.camera[0].pos[i] + scene.camera[1].pos[i]);
+      forward[i] = c.forward[i];
+      up[i] = c.up[i];
+    }
+    mju_cross(right, forward, up);
+    tan_y = std::tan(0.5 * m->vis.global.fovy * mjPI / 180);
+    tan_x = tan_y * w / h;
+  }
+  struct Point {
+    double x, y, depth;
+  };
+  Point operator()(const double p[3]) const {
+    double v[3];
+    mju_sub3(v, p, eye);
+    const double depth = mju_dot3(v, forward);
+    return {mju_dot3(v, right) / depth / tan_x, mju_dot3(v, up) / depth / tan_y, depth};
+  }
+  double eye[3], forward[3], up[3], right[3], tan_x, tan_y;
+};
+
 // The default free camera frames the bodies, not the 4 m floor: the box around the arm's geoms,
 // projected, spans at least 80 % of the frame's width or height, and lies wholly inside it.
 TEST(RenderCamera, DefaultCameraFramesTheBodies) {
@@ -452,31 +479,20 @@ TEST(RenderCamera, DefaultCameraFramesTheBodies) {
   mjv_defaultScene(&scene);
   mjv_makeScene(m, &scene, 10);
   mjv_updateCamera(m, d.get(), &camera, &scene);
-  // The two eyes sit ipd/2 either side of the camera; without stereo, mjr_render draws from their
-  // average.
-  mjvGLCamera eye = scene.camera[0];
-  for (int i = 0; i < 3; ++i) eye.pos[i] = 0.5f * (scene.camera[0].pos[i] + scene.camera[1].pos[i]);
+  const FrameProjection frame(m, scene, w, h);
   const BodyBounds bounds = BoundsOfBodies(m);
   ASSERT_TRUE(bounds.found);
   // The floor (z = 0, 4 m wide) is left out; the pedestal (a world geom) too: the box starts at
   // the turret's bottom, z = 0.2 m.
   EXPECT_NEAR(bounds.low[2], 0.2, 1e-9);
-  const double tan_y = std::tan(0.5 * m->vis.global.fovy * mjPI / 180), tan_x = tan_y * w / h;
-  double right[3];
-  mju_cross(right, std::array<double, 3>{eye.forward[0], eye.forward[1], eye.forward[2]}.data(),
-            std::array<double, 3>{eye.up[0], eye.up[1], eye.up[2]}.data());
   double x_low = 1e9, x_high = -1e9, y_low = 1e9, y_high = -1e9;
   for (int corner = 0; corner < 8; ++corner) {
-    double v[3];
-    for (int i = 0; i < 3; ++i) {
-      v[i] = ((corner >> i) & 1 ? bounds.high[i] : bounds.low[i]) - eye.pos[i];
-    }
-    const double depth = v[0] * eye.forward[0] + v[1] * eye.forward[1] + v[2] * eye.forward[2];
-    ASSERT_GT(depth, 0);
-    const double x = mju_dot3(v, right) / depth / tan_x;  // -1 .. 1 across the frame
-    const double y = (v[0] * eye.up[0] + v[1] * eye.up[1] + v[2] * eye.up[2]) / depth / tan_y;
-    x_low = std::min(x_low, x), x_high = std::max(x_high, x);
-    y_low = std::min(y_low, y), y_high = std::max(y_high, y);
+    double c[3];
+    for (int i = 0; i < 3; ++i) c[i] = (corner >> i) & 1 ? bounds.high[i] : bounds.low[i];
+    const FrameProjection::Point p = frame(c);
+    ASSERT_GT(p.depth, 0);
+    x_low = std::min(x_low, p.x), x_high = std::max(x_high, p.x);
+    y_low = std::min(y_low, p.y), y_high = std::max(y_high, p.y);
   }
   EXPECT_GE(x_low, -1);
   EXPECT_LE(x_high, 1);
@@ -517,27 +533,19 @@ TEST(RenderGauge, ASlidesGaugeStaysInTheFrame) {
   mjv_defaultOption(&option);
   mjv_updateCamera(m, d.get(), &camera, &scene);
   mjv_updateScene(m, d.get(), &option, nullptr, &camera, mjCAT_ALL, &scene);
-  mjvGLCamera eye = scene.camera[0];
-  for (int i = 0; i < 3; ++i) eye.pos[i] = 0.5f * (scene.camera[0].pos[i] + scene.camera[1].pos[i]);
-  const double tan_y = std::tan(0.5 * m->vis.global.fovy * mjPI / 180), tan_x = tan_y * w / h;
-  const double forward[3] = {eye.forward[0], eye.forward[1], eye.forward[2]};
-  const double up[3] = {eye.up[0], eye.up[1], eye.up[2]};
-  double right[3];
-  mju_cross(right, forward, up);
+  const FrameProjection frame(m, scene, w, h);
   int arrows = 0;
   for (int g = 0; g < scene.ngeom; ++g) {
     const mjvGeom& geom = scene.geoms[g];
     if (geom.type != mjGEOM_ARROW || geom.category != mjCAT_DECOR) continue;
     ++arrows;
     for (const double reach : {0.0, 1.0}) {  // the arrow's start and tip (its z axis, size[2])
-      double v[3];
-      for (int i = 0; i < 3; ++i) {
-        v[i] = geom.pos[i] + reach * geom.mat[3 * i + 2] * geom.size[2] - eye.pos[i];
-      }
-      const double depth = mju_dot3(v, forward);
-      ASSERT_GT(depth, 0);
-      EXPECT_LE(std::abs(mju_dot3(v, right) / depth / tan_x), 1) << "arrow " << arrows;
-      EXPECT_LE(std::abs(mju_dot3(v, up) / depth / tan_y), 1) << "arrow " << arrows;
+      double end[3];
+      for (int i = 0; i < 3; ++i) end[i] = geom.pos[i] + reach * geom.mat[3 * i + 2] * geom.size[2];
+      const FrameProjection::Point p = frame(end);
+      ASSERT_GT(p.depth, 0);
+      EXPECT_LE(std::abs(p.x), 1) << "arrow " << arrows;
+      EXPECT_LE(std::abs(p.y), 1) << "arrow " << arrows;
     }
   }
   EXPECT_EQ(arrows, 2);
