@@ -792,10 +792,11 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
 
   class Members final : public SubsteppedMotors {
    public:
-    Members(const Stepper& leader, const mjData* d, double step_end, DriveState* states,
-            const double* commands, double* statuses)
+    Members(const Stepper& leader, const mjData* d, double step_start, double step_end,
+            DriveState* states, const double* commands, double* statuses)
         : leader_(leader),
           d_(d),
+          step_start_(step_start),
           step_end_(step_end),
           states_(states),
           commands_(commands),
@@ -809,8 +810,11 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
     }
     void Advance(int i, double t0, double t1, double theta1) override {
       // The command holds to the MuJoCo step's end (ctrl is the step's).
+      // voltage_peak over the MuJoCo step: its sub-steps' largest.
+      const double peak = t0 > step_start_ ? states_[i].voltage_peak : 0.0;  // V
       const AdvanceStatus status =
           DriveOf(i).Advance(&states_[i], t0, t1, theta1, commands_[i], step_end_);
+      states_[i].voltage_peak = std::max(peak, states_[i].voltage_peak);
       if (status != AdvanceStatus::kOk && statuses_[i] == 0)
         statuses_[i] = static_cast<int>(status);
     }
@@ -819,11 +823,12 @@ void Stepper::SubsteppedForces(const mjModel* m, mjData* d, int n, const int* ou
     const Drive& DriveOf(int i) const { return *FromData(d_, leader_.coupled_[i].instance).drive_; }
     const Stepper& leader_;
     const mjData* d_;
-    double step_end_;  // s
+    double step_start_;  // s
+    double step_end_;    // s
     DriveState* states_;
     const double* commands_;
     double* statuses_;
-  } members(*this, d, t1, substep_states_.data(), command, status);
+  } members(*this, d, t0, t1, substep_states_.data(), command, status);
 
   // Sub-steps for the stiffest rotor mode and for the fastest forcing at the rotors' speeds.
   const double ring = FastestRotorMode(std::span(inverse_inertia, n * n), member_stiffness_);

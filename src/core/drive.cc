@@ -310,6 +310,7 @@ DriveState Drive::Rest(double time, double theta, double command) const {
   s.current_b = s.current_ref_b = current.imag();
   s.voltage_a = s.pending_a = voltage.real();
   s.voltage_b = s.pending_b = voltage.imag();
+  s.voltage_peak = std::max(std::abs(voltage.real()), std::abs(voltage.imag()));
   AnchorAt(&s, time, CoarseTime(time));
   return s;
 }
@@ -497,7 +498,11 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
                         double* copper) const {
   bool bounded = true;
   const MotorParams& motor = *winding.motor;
-  double step_copper = 0;                                    // J
+  double step_copper = 0;  // J
+  // The signal voltage_peak: the held voltages over every interval the event loop integrates;
+  // where no interval is (an averaged drive, a zero-length step), the step's two ends.
+  const PhaseVector voltage_start = s->voltage();            // V
+  double voltage_peak = -1;                                  // V; −1: no interval integrated
   const double h = t1 - t0;                                  // s
   const double theta0 = s->theta;                            // rad
   const double omega = h > 0 ? (theta1 - theta0) / h : 0.0;  // rad/s, constant over the step
@@ -891,6 +896,7 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
         t = std::max(t, t_end);
         return;
       }
+      voltage_peak = std::max({voltage_peak, std::abs(voltage.real()), std::abs(voltage.imag())});
       if (config_.solver == WindingSolver::kExact) {
         const double length = t_end - t;
         if (std::abs(length - kernel.h) > 1e-9 * length) {
@@ -1407,6 +1413,10 @@ bool Drive::AdvanceWith(const C& controller, const StepWinding& winding, DriveSt
       s->last_slip_time = t1;
     }
   }
+  s->voltage_peak = voltage_peak >= 0
+                        ? voltage_peak
+                        : std::max({std::abs(voltage_start.real()), std::abs(voltage_start.imag()),
+                                    std::abs(s->voltage_a), std::abs(s->voltage_b)});
   *copper = step_copper;
   return bounded;
 }
@@ -1533,6 +1543,7 @@ DriveSignals Drive::Signals(const DriveState& s, double theta) const {
   out.current_b = s.current_b;
   out.voltage_a = s.voltage_a;
   out.voltage_b = s.voltage_b;
+  out.voltage_peak = s.voltage_peak;
   const PhaseVector dq = ToDq(s.current(), motor.rotor_teeth * s.theta_cmd);  // S-9, ψ = Nr·θcmd
   out.current_d = dq.real();
   out.current_q = dq.imag();

@@ -242,6 +242,9 @@ struct DriveCoreState {
   // the rotor (SPEC §11).
   double mean_offset_a = 0;
   double mean_offset_b = 0;
+  // The largest |va|, |vb| the bridges held over any part of the last step (of its MuJoCo step
+  // under the substepped coupling): a one-interrupt spike between two samples shows in it.
+  double voltage_peak = 0;  ///< V
 
   PhaseVector current() const { return {current_a, current_b}; }
   /// The currents whose torque the simulator is handed (S-4), A.
@@ -294,6 +297,7 @@ StateLayout MakeStateLayout(const DriveConfig& c);
 struct DriveSignals {
   double current_a = 0, current_b = 0;          ///< A
   double voltage_a = 0, voltage_b = 0;          ///< V, held phase voltages
+  double voltage_peak = 0;                      ///< V, max |va|, |vb| over the last step
   double current_d = 0, current_q = 0;          ///< A, Park frame at ψ = Nr·θcmd (S-9, S-12)
   double current_ref_a = 0, current_ref_b = 0;  ///< A, the controller's current reference
   double theta_cmd = 0;                         ///< rad

@@ -13,6 +13,11 @@ const std::array<SignalInfo, kNumSignals>& SignalTable() {
       {"current_b", "A", "phase B current ib", &S::current_b},
       {"voltage_a", "V", "phase A voltage va (held bridge output)", &S::voltage_a},
       {"voltage_b", "V", "phase B voltage vb", &S::voltage_b},
+      {"voltage_peak", "V",
+       "the largest |va|, |vb| the bridges held at any time within the last step (MuJoCo's step; "
+       "every interrupt's and chopper event's voltage, where voltage_a/b are the one held at the "
+       "step's end); the averaged drives: the larger of their mean voltages at the step's ends",
+       &S::voltage_peak},
       {"current_d", "A", "id, Park frame at ψ = Nr·θcmd (S-9)", &S::current_d},
       {"current_q", "A", "iq, Park frame at ψ = Nr·θcmd (S-9)", &S::current_q},
       {"current_ref_a", "A",

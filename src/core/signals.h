@@ -18,7 +18,7 @@ struct SignalInfo {
   double DriveSignals::*field;  ///< where the value lives
 };
 
-inline constexpr int kNumSignals = 30;
+inline constexpr int kNumSignals = 31;
 
 /// Name, unit, meaning and field of each signal, in output order.
 const std::array<SignalInfo, kNumSignals>& SignalTable();

@@ -493,7 +493,7 @@ TEST(Drive, MicrostepsQuantizeTheCommandedCurrentVector) {
 TEST(Drive, StateRoundTripsThroughDoubles) {
   const Drive drive(TsuiConfig(kCurrent, InputMode::kPosition));
   DriveState s = drive.Rest(0.1, 0.2, 0.3);
-  EXPECT_EQ(drive.layout().total(), 39 + 2);  // core + the PI integrators; no profile
+  EXPECT_EQ(drive.layout().total(), 40 + 2);  // core + the PI integrators; no profile
   std::vector<double> buffer(drive.layout().total());
   drive.Store(s, buffer.data());
   const DriveState back = drive.Load(buffer.data());

@@ -64,9 +64,9 @@ TEST(StepperPlugin, LoadsFromMjcf) {
   ASSERT_TRUE(m) << error;
   EXPECT_EQ(m->nu, 1);
   EXPECT_EQ(m->nplugin, 1);
-  // The drive's core (39 doubles), current_microstep's two PI integrators, and the constraint
+  // The drive's core (40 doubles), current_microstep's two PI integrators, and the constraint
   // forces of the last step (a flag and one dof; plugin/stepper.h, ConstraintForces).
-  EXPECT_EQ(m->plugin_statenum[0], 41 + 1 + m->nv);
+  EXPECT_EQ(m->plugin_statenum[0], 42 + 1 + m->nv);
   EXPECT_DOUBLE_EQ(m->actuator_armature[0], 0.36e-4);
 }
 

@@ -15,7 +15,12 @@
 //     with ω̇ from the controller's own model and the measured current,
 //     ω̇ = (Km·Im(e^{−jx}·i) − B·ω − τl)/J   (S-4, S-7): what a continuous-time design means;
 //   numeric: the backward difference (id[k] − id[k−1])/T over the control period, what a DSP
-//     implementation does; it lags by half a period and is 0 at the first tick.
+//     implementation does; it lags by half a period and is 0 at the first tick. With the exact
+//     speed feedback (ideal sensors) it also differences the simulator's speed, constant over
+//     each MuJoCo step h (the step's chord): where the rotor accelerates at a, the tick after a
+//     step boundary sees ω change by a·h and applies about L·J·(k1p + k2)·a·h/(Km·T) for one
+//     tick (Kim's case 2 at h = 50 µs, a = 4π rad/s²: 5.7 V), which the `voltage_peak` signal
+//     shows and a continuous rotor would not: keep h small with it.
 #ifndef MJSTEPPER_CORE_CONTROLLERS_HIGH_GAIN_FOC_H_
 #define MJSTEPPER_CORE_CONTROLLERS_HIGH_GAIN_FOC_H_
 
@@ -34,7 +39,9 @@ inline constexpr AttributeSpec kAttrFocDerivative{
     "foc_derivative", "name", "`analytic`", "—",
     "How `foc` gets dia_d/dt, dib_d/dt of K(33): `analytic` (K(27) differentiated along the "
     "motion, ω̇ from the measured current through the controller's model) or `numeric` (backward "
-    "difference over one control period)."};
+    "difference over one control period; with exact speed feedback it also sees the speed's step "
+    "of a·h at each MuJoCo step, for one tick about L·J·(k1p + k2)·a·h/(Km·T) V: keep the "
+    "timestep small)."};
 
 struct HighGainFoc {
   static constexpr const char* kName = "foc";
