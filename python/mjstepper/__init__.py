@@ -20,6 +20,7 @@ with named columns and `.units`):
 and the same on Ray: mjstepper.distributed.sweep and .map. `mjstepper` on the command line (or
 `python -m mjstepper`) is the command.
 """
+import collections.abc
 import difflib
 import functools
 import numbers
@@ -138,7 +139,8 @@ def _attribute_text(name, value):
         close = difflib.get_close_matches(name, ATTRIBUTES, n=3)
         hint = (f"did you mean {' or '.join(close)}?" if close
                 else f"known attributes: {', '.join(ATTRIBUTES)}")
-        raise ValueError(f"unknown mjstepper attribute {name!r}: {hint}")
+        from ._experiments import _shown
+        raise ValueError(f"unknown mjstepper attribute {_shown(name)}: {hint}")
     kind = _ATTRIBUTE_TYPES[name]
     types, expected, text = _ATTRIBUTE_VALUES[kind]
     if isinstance(value, str):
@@ -146,7 +148,8 @@ def _attribute_text(name, value):
     is_bool = isinstance(value, (bool, np.bool_))
     if isinstance(value, types) and (kind == "name" or not is_bool):
         return text(value)
-    raise TypeError(f"{name} = {value!r} ({type(value).__name__}): {name} ({kind}) takes "
+    from ._experiments import _shown  # (a bounded, escaped repr, as every message quotes)
+    raise TypeError(f"{name} = {_shown(value)} ({type(value).__name__}): {name} ({kind}) takes "
                     f"{expected}")
 
 
@@ -210,14 +213,38 @@ class StepTimes:
 
     MAX_STEPS = 10_000_000  # as the C++ reader (src/core/step_times.h)
 
+    @classmethod
+    def _numbers(cls, name, values, flat=True):
+        """`values` (a number, a sequence or an array of numbers) as a flat float array: its size
+        checked first, without reading it (a broadcast view of 1e9 elements was copied whole, a
+        range(10**9) listed, issue 33), then converted; TypeError or ValueError naming `name`."""
+        if isinstance(values, np.ndarray):
+            size = values.size
+        elif isinstance(values, collections.abc.Sequence) and not isinstance(values, (str, bytes)):
+            size = len(values)
+        elif isinstance(values, numbers.Real) and not isinstance(values, (bool, np.bool_)):
+            size = 1
+        else:
+            raise TypeError(f"{name}: a {type(values).__name__}; {name} takes a number or a "
+                            "sequence of numbers")
+        if size > cls.MAX_STEPS:
+            raise ValueError(f"{name}: {size} values; more than {cls.MAX_STEPS} steps")
+        try:
+            if isinstance(values, np.ndarray):
+                array = values.astype(float, copy=False)
+            elif size == 1 and not isinstance(values, collections.abc.Sequence):
+                array = np.array([float(values)])
+            else:  # exactly its items, each a number (a nested range is no step time)
+                array = np.fromiter(values, dtype=float, count=size)
+            return array.reshape(-1) if flat else array
+        except (TypeError, ValueError, OverflowError) as e:
+            raise ValueError(f"{name}: not numbers a double holds "
+                             f"({type(e).__name__}: {str(e)[:60]})") from None
+
     def __init__(self, times, directions=None):
-        # The size first: a broadcast view of 1e9 elements was copied whole by reshape before
-        # this check (issue 33).
-        if np.size(times) > self.MAX_STEPS:
-            raise ValueError(f"more than {self.MAX_STEPS} steps")
-        times = np.asarray(times, dtype=float).reshape(-1)
+        times = self._numbers("times", times)
         directions = (np.ones_like(times) if directions is None
-                      else np.asarray(directions, dtype=float).reshape(-1))
+                      else self._numbers("directions", directions))
         if times.size == 0:
             raise ValueError("no step times")
         if times.size > self.MAX_STEPS:
@@ -250,6 +277,7 @@ class StepTimes:
     def count(self, t):
         """The signed count of steps at times <= t (s); t may be an array. A NaN time has no
         count: ValueError (searchsorted put it after every step, issue 33)."""
+        t = self._numbers("count", t, flat=False) if not isinstance(t, numbers.Real) else t
         if np.any(np.isnan(t)):
             raise ValueError("count: a time is NaN")
         i = np.searchsorted(self.times, t, side="right")

@@ -8,10 +8,12 @@ named are written as the command writes them, and the result comes back as Table
 with named columns and SI units. A number is passed as its shortest round-trip text (repr), so the
 engine computes with the very double given.
 """
+import collections.abc
 import dataclasses
 import numbers
 import os
 import re
+import reprlib
 
 import numpy as np
 
@@ -90,18 +92,73 @@ class Sizing:
     cycles: int
 
 
+# A value as a message shows it: reprlib's bounded repr (a million-character str or a 1e5-item
+# list in a message was the whole of it, issue 33), control characters escaped.
+_SHOWN = reprlib.Repr()
+_SHOWN.maxstring = _SHOWN.maxother = 60
+_SHOWN.maxlevel = 3
+_SHOWN_MOST = 120  # characters of the whole (nested sequences of 60-character objects add up)
+_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
+
+
+def _shown(value):
+    text = _SHOWN.repr(value)
+    if len(text) > _SHOWN_MOST:
+        text = text[:_SHOWN_MOST] + "…"
+    return _CONTROL.sub(lambda m: f"\\x{ord(m.group(0)):02x}", text)
+
+
+def _wrong_type(name, value, what):
+    return TypeError(f"{name} = {_shown(value)} ({type(value).__name__}): {name} takes {what}")
+
+
 def _number(name, value):
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} = {value!r} ({type(value).__name__}): {name} takes a number")
-    return repr(float(value)) if not isinstance(value, numbers.Integral) else str(int(value))
+        raise _wrong_type(name, value, "a number")
+    if isinstance(value, numbers.Integral):
+        value = int(value)
+        if abs(value) > 2 ** 63:  # (and str() of 10**5000 is itself a ValueError)
+            raise ValueError(f"{name} = {_shown(value)}: beyond ±2^63, out of every option's range")
+        return str(value)
+    try:
+        return repr(float(value))
+    except (OverflowError, ValueError):  # a Fraction of 10**400, say
+        raise ValueError(f"{name} = {_shown(value)}: not a number a double holds") from None
 
 
 def _text(name, value):
     if isinstance(value, os.PathLike):
-        return os.fspath(value)
+        return _text(name, os.fspath(value))
     if not isinstance(value, str):
-        raise TypeError(f"{name} = {value!r} ({type(value).__name__}): {name} takes a str")
+        raise _wrong_type(name, value, "a str")
     return value
+
+
+def _sequence(name, value):
+    """A sequence argument's items as a list: TypeError naming `name` when it is no sized
+    sequence (a generator, a number, a set's unordered items count), ValueError when it holds more
+    than any list of the command may (_engine.max_items, the command's kMaxRuns), both before an
+    item is read, so a broadcast view of 1e9 elements is never copied (issue 33)."""
+    limit = int(_engine.max_items)
+    if isinstance(value, np.ndarray):
+        if value.size > limit:
+            raise ValueError(f"{name}: {value.size} values; at most {limit}")
+        return list(value.reshape(-1))
+    if isinstance(value, (str, bytes)) or not isinstance(value, collections.abc.Sequence):
+        raise _wrong_type(name, value, "a list of values")
+    if len(value) > limit:
+        raise ValueError(f"{name}: {len(value)} values; at most {limit}")
+    return list(value)
+
+
+def _mapping(name, value):
+    """A {name: value} argument's items, bounded as _sequence's."""
+    if not isinstance(value, collections.abc.Mapping):
+        raise _wrong_type(name, value, "a dict")
+    limit = int(_engine.max_items)
+    if len(value) > limit:
+        raise ValueError(f"{name}: {len(value)} items; at most {limit}")
+    return list(value.items())
 
 
 def model_path(model):
@@ -122,7 +179,7 @@ def speeds_text(speeds):
         return speeds
     if isinstance(speeds, numbers.Real) and not isinstance(speeds, (bool, np.bool_)):
         speeds = [speeds]
-    values = [repr(float(_number("speeds", s))) for s in speeds]
+    values = [repr(float(_number("speeds", s))) for s in _sequence("speeds", speeds)]
     if not values:
         raise ValueError("speeds: no speed")
     return ",".join(values) + "rad/s"
@@ -183,24 +240,26 @@ def command_line(subcommand, positional, options):
         flag = "--" + name.replace("_", "-")
         if name in _FLAGS:
             if not isinstance(value, (bool, np.bool_)):
-                raise TypeError(f"{name} = {value!r} ({type(value).__name__}): {name} takes True "
-                                "or False")
+                raise TypeError(f"{name} = {_shown(value)} ({type(value).__name__}): {name} takes "
+                                "True or False")
             if value:
                 args.append(flag)
             continue
         if value is None:
             continue
-        elif isinstance(value, dict):
-            for key, v in value.items():
+        elif isinstance(value, collections.abc.Mapping):
+            for key, v in _mapping(name, value):
                 v = (_text(f"{name}[{key!r}]", v) if name in _TEXT_OPTIONS
                      else _number(f"{name}[{key!r}]", v))
                 args += [flag, f"{_text(name, key)}={v}"]
         elif isinstance(value, (list, tuple)) and name != "size":
-            for v in value:
+            for v in _sequence(name, value):
                 args += [flag, _text(name, v) if name in _TEXT_OPTIONS else _number(name, v)]
         elif name == "size":
-            width, height = value
-            args += [flag, f"{_number('size', width)}x{_number('size', height)}"]
+            pair = _sequence("size", value)
+            if len(pair) != 2:
+                raise ValueError(f"size = {_shown(value)}: size is (width, height) in pixels")
+            args += [flag, f"{_number('size', pair[0])}x{_number('size', pair[1])}"]
         elif name in _TEXT_OPTIONS:
             args += [flag, _text(name, value)]
         else:
@@ -208,13 +267,27 @@ def command_line(subcommand, positional, options):
     return args
 
 
-def _items(value):
+def _items(value, name="set"):
     """A repeatable option's values: a lone str (or number) is one value, not its characters."""
     if value is None:
         return []
-    if isinstance(value, (str, bytes, numbers.Number)):
+    if isinstance(value, (str, bytes, numbers.Number, os.PathLike)):
         return [value]
-    return list(value)
+    return _sequence(name, value)
+
+
+def run_args(model, duration, *, ctrl=None, klipper=None, log=None, log_every=None, set=(),
+             load=None, mass=None, keyframe=None, start=None, allow_coarse=False, render=None,
+             frames=None, camera=None, size=None, fps=None, playback=None, overlay=(),
+             no_overlay=False, plot=None, accel_log=None, accelerometer=None, quiet=True):
+    """The command line `run` gives the engine (every experiment has one: `*_args`; `check`
+    parses it without running)."""
+    return command_line("run", [model], dict(
+        duration=duration, ctrl=ctrl, klipper=klipper, log=log, log_every=log_every,
+        set=_items(set), load=load, mass=mass, keyframe=keyframe, start=start,
+        allow_coarse=allow_coarse, render=render, frames=frames, camera=camera, size=size,
+        fps=fps, playback=playback, overlay=_items(overlay, "overlay"), no_overlay=no_overlay, plot=plot,
+        accel_log=accel_log, accelerometer=accelerometer, quiet=quiet))
 
 
 def run(model, duration, *, ctrl=None, klipper=None, log=None, log_every=None, set=(), load=None,
@@ -229,14 +302,12 @@ def run(model, duration, *, ctrl=None, klipper=None, log=None, log_every=None, s
     traces=False). `set` ("shaft.damping=all", ...), `load` and `mass` ({name: value}) and the
     rest are the command's options (README, "The command"); `start` "settled" (the default: under
     gravity the drives first settle while it is ramped in) or "aligned" (full gravity at t = 0)."""
-    args = command_line("run", [model], dict(
-        duration=duration, ctrl=ctrl, klipper=klipper, log=log, log_every=log_every,
-        set=_items(set), load=load,
-        mass=mass, keyframe=keyframe, start=start, allow_coarse=allow_coarse, render=render, frames=frames,
-        camera=camera, size=size, fps=fps, playback=playback, overlay=_items(overlay),
-        no_overlay=no_overlay, plot=plot, accel_log=accel_log, accelerometer=accelerometer,
-        quiet=quiet))
-    r = compute(args, traces)
+    r = compute(run_args(
+        model, duration, ctrl=ctrl, klipper=klipper, log=log, log_every=log_every, set=set,
+        load=load, mass=mass, keyframe=keyframe, start=start, allow_coarse=allow_coarse,
+        render=render, frames=frames, camera=camera, size=size, fps=fps, playback=playback,
+        overlay=overlay, no_overlay=no_overlay, plot=plot, accel_log=accel_log,
+        accelerometer=accelerometer, quiet=quiet), traces)
     return RunResult(steppers=Table(r["steppers"]),
                      traces={name: Table(t) for name, t in r["traces"].items()},
                      steps=r["steps"], sim_time=r["sim_time"], wall_time=r["wall_time"],
@@ -261,8 +332,15 @@ def sweep(model, speeds, **options):
 
 def map_args(model, speeds, vary, *, actuator=None, settle=None, measure=None, threads=None,
              set=(), out=None, allow_coarse=False, quiet=True):
-    parameter, values = vary
-    text = f"{_text('vary', parameter)}=" + ",".join(_number("vary", v) for v in values)
+    pair = _sequence("vary", vary)
+    if len(pair) != 2:
+        raise ValueError(f"vary = {_shown(vary)}: vary is (parameter, values), e.g. "
+                         "(\"mass:payload\", [1, 2])")
+    parameter, values = pair
+    if isinstance(values, numbers.Real) and not isinstance(values, (bool, np.bool_)):
+        values = [values]
+    text = f"{_text('vary', parameter)}=" + ",".join(_number("vary", v)
+                                                     for v in _sequence("vary", values))
     return command_line("map", [model], dict(
         speeds=speeds_text(speeds), vary=text, actuator=actuator, settle=settle, measure=measure,
         threads=threads, set=_items(set), out=out, allow_coarse=allow_coarse, quiet=quiet))
@@ -291,27 +369,38 @@ def pullout(model, speeds, **options):
     return Table(compute(pullout_args(model, speeds, **options), False)["table"])
 
 
-def identify(model, speeds="10,30rpm", *, actuator=None, dyno=None, orders=None, set=()):
-    """`mjstepper identify`: Tsui's bench; the detent harmonics, Fs and B (Identified)."""
-    r = compute(command_line("identify", [model], dict(
+def identify_args(model, speeds="10,30rpm", *, actuator=None, dyno=None, orders=None, set=()):
+    return command_line("identify", [model], dict(
         speeds=speeds_text(speeds), actuator=actuator, dyno=dyno,
-        orders=None if orders is None else _items(orders), set=_items(set))), False)
+        orders=None if orders is None else _items(orders, "orders"), set=_items(set)))
+
+
+def identify(model, speeds="10,30rpm", **options):
+    """`mjstepper identify`: Tsui's bench; the detent harmonics, Fs and B (Identified). Options:
+    actuator, dyno, orders, set."""
+    r = compute(identify_args(model, speeds, **options), False)
     return Identified(harmonics=Table(r["harmonics"]), static_friction=r["static_friction"],
                       viscous_damping=r["viscous_damping"], residual_rms=r["residual_rms"],
                       damping_detent=r["damping_detent"])
 
 
-def resonance_test(model, axis, out, *, min_freq=None, max_freq=None, accel_per_hz=None,
-                   hz_per_sec=None, accelerometer=None, accel_rate=None, accel_range=None,
-                   accel_noise=None, seed=None, set=(), quiet=True):
-    """`mjstepper resonance-test`: Klipper's TEST_RESONANCES on a simulated printer; writes
-    OUT_raw.csv (Klipper's raw accelerometer format), OUT_psd.csv and OUT.png, returns a
-    ResonanceTest. accel_per_hz in mm/s² per Hz, accel_noise in µg/√Hz, as the command."""
-    r = compute(command_line("resonance-test", [model], dict(
+def resonance_test_args(model, axis, out, *, min_freq=None, max_freq=None, accel_per_hz=None,
+                        hz_per_sec=None, accelerometer=None, accel_rate=None, accel_range=None,
+                        accel_noise=None, seed=None, set=(), quiet=True):
+    return command_line("resonance-test", [model], dict(
         axis=axis, out=out, min_freq=min_freq, max_freq=max_freq, accel_per_hz=accel_per_hz,
         hz_per_sec=hz_per_sec, accelerometer=accelerometer, accel_rate=accel_rate,
         accel_range=accel_range, accel_noise=accel_noise, seed=seed, set=_items(set),
-        quiet=quiet)), False)
+        quiet=quiet))
+
+
+def resonance_test(model, axis, out, **options):
+    """`mjstepper resonance-test`: Klipper's TEST_RESONANCES on a simulated printer; writes
+    OUT_raw.csv (Klipper's raw accelerometer format), OUT_psd.csv and OUT.png, returns a
+    ResonanceTest. accel_per_hz in mm/s² per Hz, accel_noise in µg/√Hz, as the command. Options:
+    min_freq, max_freq, accel_per_hz, hz_per_sec, accelerometer, accel_rate, accel_range,
+    accel_noise, seed, set, quiet."""
+    r = compute(resonance_test_args(model, axis, out, **options), False)
     return ResonanceTest(psd=Table(r["psd"]), fits=Table(r["fits"]),
                          peak_frequency=r["peak_frequency"], recommended=r["recommended"],
                          samples=r["samples"])
@@ -324,7 +413,7 @@ def _joint_values(name, values, unit):
         return values
     if isinstance(values, numbers.Real) and not isinstance(values, (bool, np.bool_)):
         values = [values]
-    return ",".join(repr(float(_number(name, v))) for v in values) + unit
+    return ",".join(repr(float(_number(name, v))) for v in _sequence(name, values)) + unit
 
 
 def attach(robot, stepper, out, *, meshdir=None):
@@ -334,18 +423,23 @@ def attach(robot, stepper, out, *, meshdir=None):
     the MJCF `out` with the motors' rotor inertia as armature, the timestep the rule recommends and
     a keyframe "start". `meshdir`: the robot's mesh folder, for a URDF's package:// URIs. Returns
     {"out": path, "timestep": s, "joints": [...]}; errors name the joint and the fix."""
+    return dict(compute(attach_args(robot, stepper, out, meshdir=meshdir), False))
+
+
+def attach_args(robot, stepper, out, *, meshdir=None):
+    robot = _text("robot", robot)
     items = []
-    for joint, spec in stepper.items():
+    for joint, spec in _mapping("stepper", stepper):
         joint = _text("stepper", joint)
         pairs = []
-        for key, value in spec.items():
+        for key, value in _mapping(f"stepper[{joint!r}]", spec):
             key = _text(f"stepper[{joint!r}]", key)
             if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
-                value = repr(float(value))
+                value = _number(f"stepper[{joint!r}][{key!r}]", value)
             pairs.append(f"{key}={_text(f'stepper[{joint!r}][{key!r}]', value)}")
         items.append(f"{joint}:" + ",".join(pairs))
-    args = command_line("attach", [robot], dict(stepper=items, out=out, meshdir=meshdir))
-    return dict(compute(args, False))
+    return command_line("attach", [_text("robot", robot)],
+                        dict(stepper=items, out=out, meshdir=meshdir))
 
 
 def size(model, move, *, speed=None, accel=None, dwell=None, cycles=None, pullout_points=None,
@@ -358,17 +452,28 @@ def size(model, move, *, speed=None, accel=None, dwell=None, cycles=None, pullou
     Returns a Sizing: the table (margin at the worst point, lost steps, winding temperature after
     1 and `cycles` cycles and in continuous duty), each joint's demand and pull-out curve; with
     `out`, writes the command's CSVs and PNGs. `start`: as run's ("settled" or "aligned")."""
+    r = compute(size_args(
+        model, move, speed=speed, accel=accel, dwell=dwell, cycles=cycles,
+        pullout_points=pullout_points, out=out, threads=threads, set=set, mass=mass,
+        keyframe=keyframe, start=start, allow_coarse=allow_coarse, log=log, render=render,
+        camera=camera, size=size, fps=fps, playback=playback, quiet=quiet), False)
+    return Sizing(table=Table(r["table"]),
+                  demand={name: Table(t) for name, t in r["demand"].items()},
+                  pullout={name: Table(t) for name, t in r["pullout"].items()},
+                  cycle_time=r["cycle_time"], cycles=r["cycles"])
+
+
+def size_args(model, move, *, speed=None, accel=None, dwell=None, cycles=None,
+              pullout_points=None, out=None, threads=None, set=(), mass=None, keyframe=None,
+              start=None, allow_coarse=False, log=None, render=None, camera=None, size=None,
+              fps=None, playback=None, quiet=True):
     def joints(name, values, unit):
         return None if values is None else {
-            key: _joint_values(f"{name}[{key!r}]", v, unit) for key, v in values.items()}
+            key: _joint_values(f"{name}[{key!r}]", v, unit) for key, v in _mapping(name, values)}
     args = command_line("size", [model], dict(
         move=joints("move", move, "rad"), speed=joints("speed", speed, "rad/s"),
         accel=joints("accel", accel, "rad/s²"), dwell=dwell, cycles=cycles,
         pullout_points=pullout_points, out=out, threads=threads, set=_items(set), mass=mass,
         keyframe=keyframe, start=start, allow_coarse=allow_coarse, log=log, render=render,
         camera=camera, size=size, fps=fps, playback=playback, quiet=quiet))
-    r = compute(args, False)
-    return Sizing(table=Table(r["table"]),
-                  demand={name: Table(t) for name, t in r["demand"].items()},
-                  pullout={name: Table(t) for name, t in r["pullout"].items()},
-                  cycle_time=r["cycle_time"], cycles=r["cycles"])
+    return args

@@ -24,9 +24,12 @@ bool SaneMagnitude(double v) {
 
 }  // namespace
 
-std::string Excerpt(std::string_view text) {
-  constexpr size_t kShown = 60;  // bytes of a long text a message quotes
-  size_t shown = std::min(text.size(), kShown);
+namespace {
+
+// The first `limit` bytes of `text` (not splitting a UTF-8 character), then its length when cut;
+// control characters as \xNN, but for newlines where `lines` allows them.
+std::string Bounded(std::string_view text, size_t limit, bool lines) {
+  size_t shown = std::min(text.size(), limit);
   while (shown < text.size() && shown > 0 &&
          (static_cast<unsigned char>(text[shown]) & 0xC0) == 0x80) {
     --shown;  // not inside a UTF-8 character
@@ -35,7 +38,7 @@ std::string Excerpt(std::string_view text) {
   out.reserve(shown + 16);
   for (const char c : text.substr(0, shown)) {
     const auto byte = static_cast<unsigned char>(c);
-    if (byte < 0x20 || byte == 0x7f) {
+    if ((byte < 0x20 || byte == 0x7f) && !(lines && c == '\n')) {
       out += fmt::format("\\x{:02x}", byte);
     } else {
       out += c;
@@ -43,6 +46,17 @@ std::string Excerpt(std::string_view text) {
   }
   if (shown < text.size()) out += fmt::format("… ({} characters)", text.size());
   return out;
+}
+
+}  // namespace
+
+std::string Excerpt(std::string_view text) {
+  constexpr size_t kShown = 60;  // bytes of a long text a message quotes
+  return Bounded(text, kShown, /*lines=*/false);
+}
+
+std::string BoundedMessage(std::string_view text) {
+  return Bounded(text, kMaxMessage, /*lines=*/true);
 }
 
 void ThrowBad(const AttributeSpec& spec, const std::string& value, const std::string& rule) {

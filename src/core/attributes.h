@@ -38,6 +38,14 @@ class ConfigError : public std::runtime_error {
 /// and its length; control characters as \xNN.
 std::string Excerpt(std::string_view text);
 
+/// The most bytes of a whole error message as printed or raised.
+inline constexpr size_t kMaxMessage = 2000;
+
+/// A whole error message as the command prints it and the Python package raises it (issue 33):
+/// at most kMaxMessage bytes, then its length, whatever a message quotes; control characters but
+/// the newline as \xNN. The one bound behind every message, beside Excerpt's for a quoted value.
+std::string BoundedMessage(std::string_view text);
+
 /// Throws; the value is quoted as Excerpt quotes it.
 [[noreturn]] void ThrowBad(const AttributeSpec& spec, const std::string& value,
                            const std::string& rule);

@@ -35,6 +35,7 @@
 #include "command.h"
 #include "core/step_times.h"
 #include "installation.h"
+#include "options.h"
 
 namespace nb = nanobind;
 
@@ -327,7 +328,9 @@ struct Parsed {
         text.erase(help);
       }
       while (!text.empty() && text.back() == '\n') text.pop_back();
-      throw std::invalid_argument(text.empty() ? std::string(e.what()) : text);
+      throw std::invalid_argument(BoundedMessage(text.empty() ? std::string(e.what()) : text));
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(BoundedMessage(e.what()));
     }
   }
   CommandLine cli;
@@ -369,7 +372,16 @@ auto Interruptible(Work work) -> decltype(work()) {
     worker.join();
   }
   if (interrupted) throw nb::python_error();  // the KeyboardInterrupt the handler set
-  if (error) std::rethrow_exception(error);
+  if (error) {
+    // The experiment's own message, bounded as the command prints it (BoundedMessage).
+    try {
+      std::rethrow_exception(error);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(mjstepper::BoundedMessage(e.what()));
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error(mjstepper::BoundedMessage(e.what()));
+    }
+  }
   return std::move(*result);
 }
 
@@ -486,5 +498,8 @@ NB_MODULE(_engine, m) {
   m.def("write_outputs", &WriteOutputsFrom, nb::arg("args"), nb::arg("columns"),
         "Writes a sweep, map or pull-out result given as {column: values} to the files the "
         "command line names (its --out), as the command writes them.");
+  // The most values any list option of the command takes (options.h): the Python front-end
+  // bounds its sequences by it before it reads an item (issue 33).
+  m.attr("max_items") = kMaxRuns;
   // std::invalid_argument arrives as ValueError, std::runtime_error as RuntimeError (nanobind).
 }

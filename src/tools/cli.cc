@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <iostream>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -45,7 +46,7 @@ void AddStart(CLI::App* app, StartMode* start) {
             else if (value == "aligned")
               value = "1";
             else
-              return fmt::format("'{}': must be settled or aligned", value);
+              return fmt::format("'{}': must be settled or aligned", Excerpt(value));
             return "";
           },
           "settled|aligned"));
@@ -60,7 +61,7 @@ const CLI::Validator kModelFile(
       if (found.empty()) {
         return fmt::format(
             "'{}': no such file, nor an example model of that name (`mjstepper models` lists them)",
-            text);
+            Excerpt(text));
       }
       text = found;
       return "";
@@ -438,6 +439,14 @@ std::string OptionListMarkdown() {
   return out;
 }
 
+int CommandLine::Exit(const CLI::ParseError& e) {
+  std::ostringstream out, err;
+  const int status = app_.exit(e, out, err);
+  std::cout << out.str();  // the help, whole
+  std::cerr << BoundedMessage(err.str());
+  return status == 0 ? 0 : kUsageExit;
+}
+
 const Command& CommandLine::Parse(int argc, const char* const* argv) {
   app_.parse(argc, argv);
   Check();
@@ -456,7 +465,8 @@ void CommandLine::Check() {
     for (const std::string& item : ctrl_) {
       const size_t eq = item.find('=');
       if (eq == std::string::npos || eq == 0) {
-        throw std::invalid_argument(fmt::format("--ctrl {}: expected ACTUATOR=PROFILE", item));
+        throw std::invalid_argument(
+            fmt::format("--ctrl {}: expected ACTUATOR=PROFILE", Excerpt(item)));
       }
       const std::string profile = item.substr(eq + 1);
       try {
@@ -464,7 +474,7 @@ void CommandLine::Check() {
         // and again with the stepper's own gear once the model is loaded (runner.cc).
         CommandProfile::Parse(profile, 1.0);
       } catch (const std::invalid_argument& e) {
-        throw std::invalid_argument(fmt::format("--ctrl {}: {}", item, e.what()));
+        throw std::invalid_argument(fmt::format("--ctrl {}: {}", Excerpt(item), e.what()));
       }
       run.ctrl[item.substr(0, eq)] = profile;
     }
@@ -523,7 +533,7 @@ void CommandLine::Check() {
         c.map.values.push_back(value);
       }
       if (c.map.values.empty()) {
-        throw std::invalid_argument(fmt::format("--vary {}: no value", vary_));
+        throw std::invalid_argument(fmt::format("--vary {}: no value", Excerpt(vary_)));
       }
       const double runs = static_cast<double>(c.map.values.size() * so.speeds.size());
       RequireInRange("--speeds × --vary", Range("speeds"), runs, fmt::format("{:g} runs", runs));
@@ -591,13 +601,15 @@ void CommandLine::Check() {
       for (const std::string& item : *items) {
         const size_t eq = item.find('=');
         if (eq == std::string::npos || eq == 0) {
-          throw std::invalid_argument(fmt::format("{} {}: expected ACTUATOR=VALUES", option, item));
+          throw std::invalid_argument(
+              fmt::format("{} {}: expected ACTUATOR=VALUES", option, Excerpt(item)));
         }
         const std::string name = item.substr(0, eq), text = item.substr(eq + 1);
         ParseJointValues(fmt::format("{} {}=", option, name), text, quantity, std::nullopt,
                          quantity != JointQuantity::kPosition);
         if (!target->emplace(name, text).second) {
-          throw std::invalid_argument(fmt::format("{} {}: '{}' given twice", option, item, name));
+          throw std::invalid_argument(
+              fmt::format("{} {}: '{}' given twice", option, Excerpt(item), Excerpt(name)));
         }
       }
     }

@@ -96,7 +96,9 @@ class CommandLine {
   /// Prints what CLI11 says of `e` (help and --version to stdout, a usage error to stderr) and
   /// returns the exit status: 0 for help and --version, 2 for a malformed command line (README,
   /// "Exit status").
-  int Exit(const CLI::ParseError& e) { return app_.exit(e) == 0 ? 0 : kUsageExit; }
+  /// Prints a parse error (its message bounded: BoundedMessage) or the help, as CLI11 does; the
+  /// exit status (0 for --help, else kUsageExit).
+  int Exit(const CLI::ParseError& e);
   static constexpr int kUsageExit = 2;
   CLI::App& app() { return app_; }
 

@@ -476,7 +476,7 @@ int Main(int argc, const char* const* argv) {
   } catch (const CLI::ParseError& e) {
     return cli.Exit(e);
   } catch (const std::exception& e) {
-    fmt::print(std::cerr, "mjstepper: {}\n", e.what());
+    fmt::print(std::cerr, "mjstepper: {}\n", BoundedMessage(e.what()));
     return 1;
   }
 }

@@ -184,7 +184,8 @@ inline constexpr std::pair<const char*, size_t> kCoreFields[] = {
     MJSTEPPER_FIELD(winding_temperature),
     MJSTEPPER_FIELD(housing_temperature),
     MJSTEPPER_FIELD(mean_offset_a),
-    MJSTEPPER_FIELD(mean_offset_b)};
+    MJSTEPPER_FIELD(mean_offset_b),
+    MJSTEPPER_FIELD(voltage_peak)};
 #undef MJSTEPPER_FIELD
 static_assert(std::size(kCoreFields) == sizeof(DriveCoreState) / sizeof(double));
 

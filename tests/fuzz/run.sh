@@ -7,6 +7,9 @@
 #   bash tests/fuzz/run.sh drive 20          drive_fuzz, 20 s (CI's short run, a ctest test)
 #   bash tests/fuzz/run.sh drive -runs=N     drive_fuzz, N inputs
 #   bash tests/fuzz/run.sh cli 15            cli_fuzz (the command line), 15 s
+#   bash tests/fuzz/run.sh python -runs=N    python_fuzz.py (the Python front-end's arguments,
+#                                            atheris) in MJSTEPPER_FUZZ_PYTHON, a Python with the
+#                                            mjstepper wheel installed (wheel_test.sh makes one)
 # The target, config (corpus tests/fuzz/corpus/), drive (tests/fuzz/corpus_drive/) or cli
 # (tests/fuzz/corpus_cli/), comes first
 # if given. Further arguments go to libFuzzer (e.g. -jobs=2). Inputs the run finds that add
@@ -26,6 +29,7 @@ if (($#)); then
     config) shift ;;
     drive) target=drive_fuzz; corpus=$here/tests/fuzz/corpus_drive; shift ;;
     cli) target=cli_fuzz; corpus=$here/tests/fuzz/corpus_cli; shift ;;
+    python) target=python; corpus=$here/tests/fuzz/corpus_python; shift ;;
   esac
 fi
 limit=(-max_total_time=45)
@@ -34,6 +38,25 @@ if (($#)); then
     -runs=*) limit=("$1"); shift ;;
     [0-9]*) limit=(-max_total_time="$1"); shift ;;
   esac
+fi
+if [[ $target == python ]]; then
+  # The installed package (no build here): atheris pinned in requirements-python.txt, the run in
+  # an empty folder (the fuzzer checks that nothing is written there), artifacts kept beside the
+  # other fuzzers'.
+  py=${MJSTEPPER_FUZZ_PYTHON:?set MJSTEPPER_FUZZ_PYTHON to a Python with the mjstepper wheel installed}
+  "$py" -m pip install -q -r "$here/tests/fuzz/requirements-python.txt" 2>&1 |
+    grep -v "^WARNING: Location" || true
+  mkdir -p "$build"
+  scratch=$(mktemp -d)
+  work=$(mktemp -d)
+  trap 'rm -rf "$scratch" "$work"' EXIT
+  cd "$work"
+  start=$(date +%s)
+  "$py" "$here/tests/fuzz/python_fuzz.py" -timeout=1 -rss_limit_mb=2048 -print_final_stats=1 \
+    -artifact_prefix="$build/python-" "${limit[@]}" "$@" "$scratch" "$corpus"
+  echo "run.sh: python_fuzz fuzzed $(( $(date +%s) - start )) s; corpus $(ls "$corpus" | wc -l)" \
+    "seed files + $(ls "$scratch" | wc -l) new"
+  exit 0
 fi
 command -v "$cxx" >/dev/null || { echo "run.sh: $cxx not found (scripts/bootstrap.sh installs clang-14)" >&2; exit 1; }
 

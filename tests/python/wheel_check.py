@@ -334,6 +334,36 @@ class OneEngine(unittest.TestCase):
         with self.assertRaisesRegex(ValueError, "/dev/zero: not a regular file"):
             mjstepper.StepTimes.read("/dev/zero")
 
+    def test_arguments_are_checked_and_messages_bounded(self):
+        # issue 33, found by tests/fuzz/python_fuzz.py: a None or a number where a sequence
+        # belongs raised Python's own unnamed TypeError; range(10**9) as speeds was listed item by
+        # item (minutes); StepTimes(10**400) raised OverflowError; a message quoted a
+        # million-character argument whole, the engine's as well as the package's.
+        from mjstepper import _experiments as ex
+        with self.assertRaisesRegex(TypeError, "speeds = None .NoneType.: speeds takes a list"):
+            ex.sweep_args(RIGID, None)
+        with self.assertRaisesRegex(ValueError, "speeds: 1000000000 values; at most 100000"):
+            ex.sweep_args(RIGID, range(10 ** 9))
+        with self.assertRaisesRegex(TypeError, "vary = 5 .int.: vary takes a list"):
+            ex.map_args(RIGID, "10rpm", 5)
+        with self.assertRaisesRegex(ValueError, "vary = .'a', 1, 2.: vary is .parameter, values."):
+            ex.map_args(RIGID, "10rpm", ("a", 1, 2))
+        with self.assertRaisesRegex(ValueError, "size = .1, 2, 3.: size is .width, height."):
+            ex.run_args(RIGID, 1.0, size=(1, 2, 3))
+        with self.assertRaisesRegex(ValueError, "times: not numbers a double holds"):
+            mjstepper.StepTimes(10 ** 400)
+        with self.assertRaisesRegex(TypeError, "times: a generator"):
+            mjstepper.StepTimes(x for x in [0.1])
+        huge = "x" * 1_000_000 + "\x1b[2J"
+        for call in (lambda: mjstepper.run(RIGID, huge),
+                     lambda: mjstepper.run(huge, 1.0),
+                     lambda: mjstepper.sweep(RIGID, "10rpm", settle=[huge])):
+            with self.assertRaises((TypeError, ValueError)) as caught:
+                call()
+            text = str(caught.exception)
+            self.assertLess(len(text), 2100, text[:300])
+            self.assertNotIn("\x1b", text)
+
     def test_a_bool_is_only_a_flag(self):
         # issue 33: run(model, True) gave --duration no value, and the command read "--quiet" as
         # it ('--duration: "--quiet" is not a finite number'); a flag takes only True or False.
@@ -488,8 +518,8 @@ class Arguments(unittest.TestCase):
                      "sweep": (mjstepper._experiments.sweep_args, set()),
                      "map": (mjstepper._experiments.map_args, set()),
                      "pullout": (mjstepper._experiments.pullout_args, set()),
-                     "identify": (mjstepper.identify, set()),
-                     "resonance-test": (mjstepper.resonance_test, set()),
+                     "identify": (mjstepper._experiments.identify_args, set()),
+                     "resonance-test": (mjstepper._experiments.resonance_test_args, set()),
                      "size": (mjstepper.size, set()),
                      "attach": (mjstepper.attach, set())}
         for command, (function, python_only) in functions.items():

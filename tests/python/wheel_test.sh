@@ -17,6 +17,9 @@ wheel=$(ls "$work"/dist/mjstepper-*.whl)
 "$work/venv/bin/pip" install -q "$wheel[ray]" 2>&1 | grep -v "^WARNING: Location" || true
 cd "$work"
 "$work/venv/bin/python" "$src/tests/python/wheel_check.py" "$src" "$cli"
+# Issue 33, item 7: the Python front-end's arguments fuzzed for 15 s (tests/fuzz/python_fuzz.py,
+# atheris pinned in tests/fuzz/requirements-python.txt, installed into this venv).
+MJSTEPPER_FUZZ_PYTHON="$work/venv/bin/python" bash "$src/tests/fuzz/run.sh" python 15
 # Issue 19 item 8: python -m mjstepper.view on a virtual screen.
 xvfb-run -a -s "-screen 0 1280x720x24" "$work/venv/bin/python" \
   "$src/tests/python/view_check.py" "$src"

@@ -384,6 +384,34 @@ TEST(Security, ALongSpeedListParsesAndItsMessagesQuoteAnExcerpt) {
   }
 }
 
+// Issue 33 (found by the Python front-end's fuzzer): a message quoted a whole argument, a model
+// path of a million characters, an unexpected word, a --ctrl item: every message the command
+// prints is bounded (BoundedMessage, kMaxMessage bytes) and quotes a value as an excerpt, with its
+// control characters escaped.
+TEST(Security, EveryMessageIsBounded) {
+  const std::string tsui = MJSTEPPER_SOURCE_DIR "/models/tsui_rigid.xml";
+  const std::string huge = std::string(100000, 'x') + "\x1b[2J";
+  // (arguments, the longest message: an excerpt of the value, or CLI11's own words cut whole)
+  const std::vector<std::pair<std::vector<std::string>, size_t>> cases = {
+      {{"run", huge, "--duration", "1"}, 400},
+      {{"run", tsui, "--duration", "1", "--ctrl", "shaft=" + huge}, 400},
+      {{"run", tsui, "--duration", "1", "--ctrl", huge}, 400},
+      {{"run", tsui, "--duration", "1", "--start", huge}, 400},
+      {{"map", tsui, "--speeds", "10rpm", "--vary", huge}, 400},
+      {{"run", tsui, "--duration", "1", huge}, mjstepper::kMaxMessage + 100}};
+  for (const auto& [args, longest] : cases) {
+    const Result r = Cli(args);
+    EXPECT_NE(r.status, 0);
+    EXPECT_LT(r.output.size(), longest) << r.output.substr(0, 600);
+    EXPECT_EQ(r.output.find('\x1b'), std::string::npos) << r.output.substr(0, 600);
+  }
+  // The one bound behind them all: kept whole to kMaxMessage bytes, newlines kept.
+  const std::string message = mjstepper::BoundedMessage("a\nb\x07" + std::string(5000, 'c'));
+  EXPECT_EQ(message.substr(0, 8), "a\nb\\x07c");
+  EXPECT_LE(message.size(), mjstepper::kMaxMessage + 40);
+  EXPECT_THAT(message, HasSubstr("… (5004 characters)"));
+}
+
 // The README's option-range table and its list of every front-end's options (issue 32, item 1)
 // are the ones generated from the tables the parser uses: an edited bound or option fails here
 // until `mjstepper tables --write README.md` regenerates them.
