@@ -123,7 +123,15 @@ double FirstCrossing(const MotorParams& p, const SpeedKernel& speed, PhaseVector
     return sign * (Component(A + B * rotation + C * decay, phase) - level);
   };
   const double g_from = g(from, nullptr);
-  if (g_from >= 0) return from;  // already past the level when the comparator is armed
+  if (g_from >= 0) return from;           // already past the level when the comparator is armed
+  if (std::isnan(g_from)) return kNever;  // a state no step makes: the drive's check finds it
+  // No crossing at all where the level stays beyond the current's reach: |i_p(τ)| <= |A| + |B| +
+  // |C| for τ >= 0 (|e^{jΩτ}| = 1, e^{−aτ} <= 1), and sign·ℓ is least at one end of its ramp.
+  // Exact, and it bounds the work of a comparator armed on a level out of reach (found by the
+  // drive fuzzer: a stored level of 1e308 took 64 pieces at every interrupt, seconds a step).
+  const double reach = std::abs(A) + std::abs(B) + std::abs(C);  // A
+  const double least_level = std::min(sign * level0, sign * (level0 + slope * ramp));
+  if (a >= 0 && least_level > reach) return kNever;
   // Pieces of at most 0.5 rad of electrical rotation, split at the ramp's end (a kink of ℓ), and
   // at most kMaxCrossingPieces of them (bounded work at any speed, found by the drive fuzzer: at
   // an absurd speed 0.5/|Ω| fell below the round-off of `lo` and the loop never moved).

@@ -5,14 +5,18 @@
 // One input is decoded (FuzzedDataProvider) into
 //   - a few attribute key/value pairs: keys from AttributeNames() (now and then an unknown one),
 //     values a known word, a number in some spelling, a harmonic list, or raw bytes;
-//   - a profile text, from the grammar's pieces or raw bytes;
+//   - a profile text, from the grammar's pieces or raw bytes: constant, ramp, trapezoid,
+//     targets(…) (now and then beyond its bound of targets), steps(FILE) and shaped(…) nested to
+//     six levels (two beyond its bound), FILE a step file written from the input (times, signs,
+//     comments, garbage) or a path that is no regular file (issue 33: the new surfaces);
 //   - a timestep, a rotor start angle and speed, and a command.
 // Properties (a violation traps, so libFuzzer reports it with the input):
 //   1. no crash, no sanitizer report, no exception escaping either parser;
 //   2. the config parser asks only for names in AttributeNames();
 //   3. a config rejection reads `name = "value": rule`, `name` an attribute, `value` the text given
 //      for it (trimmed, or the same number respelled) or, when it was not given, its default;
-//   4. a profile rejection is std::invalid_argument with a non-empty message quoting the profile;
+//   4. a profile rejection is std::invalid_argument with a non-empty message of at most 1000
+//      bytes quoting the profile (or, for a step file's own error, naming the file);
 //   5. an accepted config builds a Drive, and unless the plugin would refuse it (more than
 //      kMaxInterruptsPerStep interrupts per timestep, core/drive.h), resting and advancing it
 //      five timesteps with the command the plugin gives (Drive::CommandFrom) leaves every state
@@ -24,7 +28,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -65,8 +71,99 @@ constexpr const char* kProfileNames[] = {"constant", "ramp", "trapezoid", "", "R
 constexpr const char* kUnits[] = {"rpm", "r/min", "rad/s", "rad", "deg",
                                   "s",   "ms",    "",      "m",   " rpm"};
 
-std::string ConsumeProfileText(FuzzedDataProvider& in) {
-  if (in.ConsumeIntegralInRange<int>(0, 7) == 0) return in.ConsumeRandomLengthString(64);
+constexpr const char* kShapers[] = {"zv",       "mzv", "zvd", "ei",  "2hump_ei",
+                                    "3hump_ei", "ZV",  "",    "zvdd"};
+constexpr const char* kSpecialStepFiles[] = {
+    "/dev/zero", "/proc/self/mem", "/nonexistent/steps", "/tmp", "", "/dev/null"};
+
+// The scratch step file steps(…) names, in a folder of its own made once and removed at exit.
+const std::string& StepFilePath() {
+  static const std::string path = [] {
+    static char dir[] = "/tmp/mjstepper_config_fuzz_XXXXXX";
+    const char* made = mkdtemp(dir);
+    if (made == nullptr) Fail("cannot make a scratch folder", dir);
+    std::atexit([] {
+      std::error_code ignored;
+      std::filesystem::remove_all(dir, ignored);
+    });
+    return std::string(made) + "/steps.txt";
+  }();
+  return path;
+}
+
+// A step file's text (step_times.h): rising times, some with a direction, comments, blank lines,
+// any number, garbage; LF or CRLF.
+std::string ConsumeStepFileText(FuzzedDataProvider& in) {
+  std::string text;
+  double t = 0;  // s
+  const int lines = in.ConsumeIntegralInRange<int>(0, 24);
+  for (int i = 0; i < lines; ++i) {
+    switch (in.ConsumeIntegralInRange<int>(0, 6)) {
+      case 0:
+      case 1:
+        t += in.ConsumeFloatingPointInRange<double>(0.0, 0.01);
+        text += FormatNumber(in, t);
+        break;
+      case 2:
+        t += in.ConsumeFloatingPointInRange<double>(0.0, 0.01);
+        text += FormatNumber(in, t) + (in.ConsumeBool() ? " -1" : in.ConsumeBool() ? " +1" : " 2");
+        break;
+      case 3:
+        text += "# a comment";
+        break;
+      case 4:
+        break;  // blank
+      case 5:
+        text += FormatNumber(in, ConsumeNumber(in));
+        break;
+      default:
+        text += in.ConsumeRandomLengthString(16);
+    }
+    text += in.ConsumeIntegralInRange<int>(0, 7) == 0 ? "\r\n" : "\n";
+  }
+  return text;
+}
+
+std::string ConsumeProfileText(FuzzedDataProvider& in, int depth = 0) {
+  const int kind = in.ConsumeIntegralInRange<int>(0, 11);
+  if (kind == 0) return in.ConsumeRandomLengthString(64);
+  if (kind <= 2 && depth < 6) {  // shaped(PROFILE, TYPE F Hz [ζ])
+    std::string text = "shaped(" + ConsumeProfileText(in, depth + 1) + ", " +
+                       in.PickValueInArray(kShapers) + " " + FormatNumber(in, ConsumeNumber(in)) +
+                       (in.ConsumeBool() ? "Hz" : "");
+    if (in.ConsumeBool()) text += " " + FormatNumber(in, ConsumeNumber(in));
+    return text + (in.ConsumeIntegralInRange<int>(0, 15) != 0 ? ")" : "");
+  }
+  if (kind == 3) {  // targets(ANGLE[@TIME], ...), now and then beyond kMaxTargets
+    const bool many = in.ConsumeIntegralInRange<int>(0, 31) == 0;
+    const int count =
+        many ? static_cast<int>(mjstepper::kMaxTargets) + in.ConsumeIntegralInRange<int>(-1, 1)
+             : in.ConsumeIntegralInRange<int>(0, 8);
+    std::string text = "targets(";
+    for (int i = 0; i < count; ++i) {
+      if (i > 0) text += ",";
+      if (many) {
+        text += "0rad";
+        continue;
+      }
+      text += FormatNumber(in, ConsumeNumber(in)) + in.PickValueInArray(kUnits);
+      if (in.ConsumeBool())
+        text += "@" + FormatNumber(in, ConsumeNumber(in)) + in.PickValueInArray(kUnits);
+    }
+    return text + ")";
+  }
+  if (kind == 4) {  // steps(FILE): a file written now, or a path that is no regular file
+    std::string path = in.PickValueInArray(kSpecialStepFiles);
+    if (in.ConsumeIntegralInRange<int>(0, 3) != 0) {
+      path = StepFilePath();
+      std::FILE* f = std::fopen(path.c_str(), "wb");
+      if (f == nullptr) Fail("cannot write the scratch step file", path);
+      const std::string text = ConsumeStepFileText(in);
+      std::fwrite(text.data(), 1, text.size(), f);
+      std::fclose(f);
+    }
+    return "steps(" + path + ")";
+  }
   std::string text = in.PickValueInArray(kProfileNames);
   if (in.ConsumeIntegralInRange<int>(0, 15) != 0) text += '(';
   const int args = in.ConsumeIntegralInRange<int>(0, 5);
@@ -139,9 +236,22 @@ void CheckProfile(const std::string& text, std::optional<double> rad_per_metre) 
   } catch (const std::invalid_argument& e) {
     const std::string message = e.what();
     if (message.empty()) Fail("empty profile rejection", "profile: " + text);
-    if (message.rfind("profile \"", 0) != 0) {
+    // A step file's own error names the file (step_times.h: "FILE:LINE: rule", "FILE: not a
+    // regular file"), quoted as Excerpt quotes it.
+    const size_t steps = text.find("steps(");
+    const std::string file =
+        steps == std::string::npos
+            ? ""
+            : text.substr(steps + 6,
+                          text.find(')', steps) - std::min(text.find(')', steps), steps + 6));
+    const bool names_file =
+        steps != std::string::npos && message.rfind(mjstepper::Excerpt(file), 0) == 0;
+    if (message.rfind("profile \"", 0) != 0 && !names_file) {
       Fail("profile rejection does not quote the profile",
            "profile: " + text + "\nmessage: " + message);
+    }
+    if (message.size() > 1000) {  // every quote an Excerpt (issue 33)
+      Fail("profile rejection of more than 1000 bytes", "profile: " + text.substr(0, 200));
     }
   }
 }

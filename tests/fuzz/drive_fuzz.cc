@@ -30,6 +30,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <map>
@@ -239,5 +240,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     t = t1;
     theta = theta1;
   }
+  // MJSTEPPER_FUZZ_LOG=1: the input's attributes and steps on stderr (to read a slow input).
+  if (std::getenv("MJSTEPPER_FUZZ_LOG") != nullptr) std::fprintf(stderr, "%s", log.c_str());
   return 0;
 }

@@ -203,6 +203,10 @@ struct MicrostepTable {
   double Entry(double position) const {
     const double quarter_steps = static_cast<double>(microsteps);
     double r = std::fmod(position, 4 * quarter_steps);
+    // A position that is not finite comes only from a stored state that is not (a user's write):
+    // NaN on, for the drive's check after the step to find, not an int cast of NaN (undefined;
+    // found by drive_fuzz, issue 33).
+    if (!std::isfinite(r)) return r;
     if (r < 0) r += 4 * quarter_steps;
     const int quadrant = std::min(static_cast<int>(r / quarter_steps), 3);
     double q = r - quadrant * quarter_steps;  // 0 .. microsteps
