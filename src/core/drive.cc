@@ -409,6 +409,11 @@ AdvanceStatus Drive::Advance(DriveState* s, double t0, double t1, double theta1,
   if (!(std::isfinite(t0) && std::isfinite(t1) && t1 >= t0)) return AdvanceStatus::kBadTime;
   const bool input_ok = std::abs(theta1) <= kMaxCommand && std::abs(command) <= kMaxCommand;
   if (!input_ok) return AdvanceStatus::kBadInput;
+  if (t1 - t0 > kMaxTicksPerAdvance * config_.isr_period) {
+    // Too long a step to run tick by tick: the drive would have settled on its command.
+    Restart(s, t1, theta1, command, /*keep_energies=*/true);
+    return AdvanceStatus::kEventBound;
+  }
   // A stored state no step makes (a user's write into plugin_state, a corrupt file) is restarted
   // before it runs, as the plugin does before its forces (Plausible): a stored rotor angle of
   // 1e303 made a rotor speed of 1e302 rad/s, whose phasors took seconds a step in the chopper's
@@ -416,11 +421,6 @@ AdvanceStatus Drive::Advance(DriveState* s, double t0, double t1, double theta1,
   if (!Plausible(reinterpret_cast<const double*>(static_cast<const DriveCoreState*>(s)))) {
     Restart(s, t1, theta1, command, /*keep_energies=*/false);
     return AdvanceStatus::kBadState;
-  }
-  if (t1 - t0 > kMaxTicksPerAdvance * config_.isr_period) {
-    // Too long a step to run tick by tick: the drive would have settled on its command.
-    Restart(s, t1, theta1, command, /*keep_energies=*/true);
-    return AdvanceStatus::kEventBound;
   }
   // A clock far from its anchor re-anchors at its next tick, so that n stays a small integer.
   if (!(s->next_tick >= 0 && s->next_tick <= kMaxTicksFromAnchor)) {
