@@ -210,7 +210,18 @@ TimestepVerdict JudgeModelTimestep(const mjModel* m, const std::vector<ModalStep
   // The strictest of the steppers' couplings (core/coupling.h, MaxOmegaTimesStep).
   double limit = kMaxOmegaTimesStep;
   for (const ModalStepper& s : steppers) limit = std::min(limit, s.max_omega_h);
-  return JudgeTimestep(rule, m->opt.timestep, limit);
+  TimestepVerdict verdict = JudgeTimestep(rule, m->opt.timestep, limit);
+  // A move's ringing with STEP/DIR input: on the fastest stepper mode with every stepper's
+  // holding stiffness (the rotor rings on it whatever the coupling), as `info` lists the modes.
+  if (std::any_of(steppers.begin(), steppers.end(),
+                  [](const ModalStepper& s) { return s.step_input; })) {
+    double fastest = 0;  // rad/s
+    for (const Mode& mode : ComputeModes(m, steppers, key)) {
+      if (mode.stepper()) fastest = std::max(fastest, mode.omega);
+    }
+    JudgeRinging(&verdict, fastest);
+  }
+  return verdict;
 }
 
 }  // namespace mjstepper::plugin

@@ -31,6 +31,9 @@ struct ModalStepper {
   /// Sub-stepped (core/substep.h): its rotor's spring is integrated within the step, not by
   /// MuJoCo, so the timestep rule leaves it out of the modes it judges.
   bool substepped = false;
+  /// Takes STEP/DIR input (input = steps): the verdict then recommends the step a move's ringing
+  /// needs (core/timestep_rule.h, kRingingOmegaTimesStep).
+  bool step_input = false;
 };
 
 /// A stepper takes part in a mode when at least this fraction of the mode's potential energy is in

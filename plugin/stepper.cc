@@ -237,7 +237,8 @@ void Stepper::AddModalSteppers(const mjModel* m, std::vector<ModalStepper>* out)
                     .stiffness = drive_->HoldingStiffness(),
                     .detent_stiffness = drive_->DetentStiffness(),
                     .max_omega_h = MaxOmegaTimesStep(coupling_),
-                    .substepped = coupling_ == Coupling::kSubstepped});
+                    .substepped = coupling_ == Coupling::kSubstepped,
+                    .step_input = drive_->config().input == InputMode::kSteps});
   }
 }
 

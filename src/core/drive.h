@@ -112,16 +112,6 @@ double StepAngle(const DriveConfig& c);
 /// docs/coupling.md). core/coupling.h's MaxOmegaTimesStep gives each coupling's measured limit.
 inline constexpr double kMaxOmegaTimesStep = 0.2;
 
-/// The largest ω·h, on the fastest stepper mode, at which a move's ringing after it (its residual
-/// vibration, a small remainder of its excitations, which the time of each torque change within a
-/// step moves) stays within 5 % of a fine reference with STEP/DIR input. Measured on
-/// models/corexy.xml's move at six shifts of the move against the step grid (docs/coupling.md,
-/// "The CoreXY's ringing against the step grid"): within ±4.4 % at 50 µs (ω·h 0.064), −4.4 to
-/// +9.2 % at 100 µs, −3.8 to +8.8 % at the rule's 154 µs (0.2). The bound depends on the move:
-/// the bed-slinger's Y move, whose ringing is larger, stays within 3.8 % to 100 µs (ω·h 0.15 on its
-/// 245.8 Hz rotor mode). `info` gives it as a note; the rule does not enforce it.
-inline constexpr double kRingingOmegaTimesStep = 0.065;
-
 /// The largest timestep, s, that resolves a rotor of inertia J (kg·m²) held by stiffness T'
 /// (N·m/rad): kMaxOmegaTimesStep/ωn, ωn = √(T'/J); infinite when T' = 0.
 double LargestTimestep(double stiffness, double inertia);

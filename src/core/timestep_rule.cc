@@ -95,6 +95,12 @@ std::string TimestepVerdict::Message(const std::string& subject,
                         RoundDown3(c.largest_timestep));
   }
   text += fmt::format("{}use timestep <= {:.3g} s (passes every mode)", separator, suggestion);
+  if (ringing_timestep < suggestion) {
+    text += fmt::format(
+        "{}after a move with STEP/DIR input, timestep <= {:.3g} s keeps its ringing within 5 % "
+        "of a fine reference (ω·h <= {:g} on the fastest stepper mode, {:.1f} Hz)",
+        separator, ringing_timestep, kRingingOmegaTimesStep, ringing_frequency);
+  }
   if (!refuse()) {
     text +=
         "; no stepper takes part in these modes, so the model's own springs decide (not "
@@ -110,10 +116,31 @@ std::string TimestepVerdict::Summary(const std::string& subject) const {
       [](const FailedCheck& a, const FailedCheck& b) { return a.omega_h < b.omega_h; });
   return fmt::format(
       "{}: timestep {:g} s is too coarse for {} mode(s) (ω·h <= {:g} each; the fastest, {}, "
-      "{:.1f} Hz, ω·h = {}): use timestep <= {:.3g} s{} (`mjstepper info` lists every mode)",
+      "{:.1f} Hz, ω·h = {}): use timestep <= {:.3g} s{}{} (`mjstepper info` lists every mode)",
       subject, timestep, failed.size(), max_omega_h, worst.name, worst.frequency,
       FormatOmegaH(worst.omega_h, max_omega_h), suggestion,
+      ringing_timestep < suggestion
+          ? fmt::format(", <= {:.3g} s for a move's ringing with STEP/DIR input", ringing_timestep)
+          : "",
       refuse() ? "" : "; no stepper takes part in these modes (not refused)");
+}
+
+void JudgeRinging(TimestepVerdict* v, double fastest_stepper_omega) {
+  if (!(fastest_stepper_omega > 0)) return;
+  v->ringing_timestep = RoundDown3(kRingingOmegaTimesStep / fastest_stepper_omega);
+  v->ringing_frequency = fastest_stepper_omega / kTwoPi;
+}
+
+std::string TimestepVerdict::RingingNote(const std::string& subject) const {
+  if (!ringing_exceeded()) return "";
+  return fmt::format(
+      "{}: after a move with STEP/DIR input, timestep {:g} s (ω·h = {:.3g} on the fastest stepper "
+      "mode, {:.1f} Hz) may leave its ringing more than 5 % off a fine reference's; timestep <= "
+      "{:.3g} s (ω·h <= {:g}) keeps it within 5 % where the ringing is a small remainder of the "
+      "move's kicks (the CoreXY's), while a larger ringing (the bed-slinger's Y move) holds to "
+      "ω·h = {:g} (docs/coupling.md, \"The CoreXY's ringing against the step grid\")",
+      subject, timestep, kTwoPi * ringing_frequency * timestep, ringing_frequency, ringing_timestep,
+      kRingingOmegaTimesStep, kRingingOmegaTimesStepLargeRing);
 }
 
 }  // namespace mjstepper

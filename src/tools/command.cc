@@ -180,23 +180,19 @@ int Info(const std::string& path) {
   if (const std::string note = SubstepNote(sm); !note.empty()) fmt::print("  note: {}\n", note);
   if (const std::string warning = IntegratorWarning(m); !warning.empty())
     fmt::print("  warning: {}\n", warning);
-  // A move's ringing after it, with STEP/DIR input: a finer step than the rule's (drive.h).
-  const bool steps = std::any_of(sm.steppers.begin(), sm.steppers.end(),
-                                 [](const auto& s) { return s.config.input == InputMode::kSteps; });
-  double fastest = 0;  // rad/s, the fastest stepper mode
-  for (const auto& mode : modes) {
-    if (mode.stepper()) fastest = std::max(fastest, mode.omega);
-  }
-  if (steps && fastest > 0) {
-    const double ringing = RoundDown3(kRingingOmegaTimesStep / fastest);  // s
+  // A move's ringing after it, with STEP/DIR input: a finer step than the rule's, recommended
+  // (core/timestep_rule.h, kRingingOmegaTimesStep), as run and size note it.
+  if (std::isfinite(verdict.ringing_timestep)) {
     fmt::print(
         "  ringing after a move (STEP/DIR): the time of each torque change within a step moves "
         "it; a ringing that is a small remainder of the move's kicks (the CoreXY's) stays within "
         "5 % of a fine reference at ω·h <= {:g} on the fastest stepper mode ({:.1f} Hz): "
-        "timestep <= {:.3g} s ({}); a larger one (the bed-slinger's Y) to ω·h = 0.15 "
+        "timestep <= {:.3g} s ({}); a larger one (the bed-slinger's Y) to ω·h = {:g} "
         "(docs/coupling.md)\n",
-        kRingingOmegaTimesStep, fastest / kTwoPi, ringing,
-        h <= ringing ? fmt::format("{:g} s meets it", h) : fmt::format("{:g} s does not", h));
+        kRingingOmegaTimesStep, verdict.ringing_frequency, verdict.ringing_timestep,
+        verdict.ringing_exceeded() ? fmt::format("{:g} s does not", h)
+                                   : fmt::format("{:g} s meets it", h),
+        kRingingOmegaTimesStepLargeRing);
   }
   return 0;  // warnings inform; they do not fail the command
 }

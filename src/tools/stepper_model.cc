@@ -324,7 +324,8 @@ std::vector<plugin::ModalStepper> ModalSteppers(const StepperModel& sm) {
                    .stiffness = drive.HoldingStiffness(),
                    .detent_stiffness = drive.DetentStiffness(),
                    .max_omega_h = MaxOmegaTimesStep(s.coupling),
-                   .substepped = s.coupling == Coupling::kSubstepped});
+                   .substepped = s.coupling == Coupling::kSubstepped,
+                   .step_input = s.config.input == InputMode::kSteps});
   }
   return out;
 }
@@ -338,6 +339,10 @@ void ApplyTimestepRule(const StepperModel& sm, int key, const std::string& subje
   if (const std::string warning = IntegratorWarning(sm.model.get()); !warning.empty())
     fmt::print(out, "warning: {}: {}\n", subject, warning);
   const TimestepVerdict verdict = CheckTimestep(sm, key);
+  // A step the modes pass but a move's ringing does not: recommended, never refused.
+  if (const std::string note = verdict.RingingNote(subject);
+      verdict.failed.empty() && !note.empty())
+    fmt::print(out, "note: {}\n", note);
   if (verdict.failed.empty()) return;
   const std::string message = verdict.Message(subject);
   if (verdict.refuse() && !allow_coarse) {

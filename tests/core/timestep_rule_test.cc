@@ -107,5 +107,42 @@ TEST(TimestepRule, LimitIsAParameter) {
   EXPECT_EQ(JudgeTimestep(modes, 1, 0.05).suggestion, 5e-5);
 }
 
+// Issue 30, items 4 and 6: with STEP/DIR input the verdict recommends the step a move's ringing
+// needs, kRingingOmegaTimesStep/ω on the fastest stepper mode, and never refuses on it. The
+// CoreXY's 205.6 Hz rotor mode gives 5.03e-5 s: 1e-4 s passes the modes (ω·h 0.129 <= 0.2) but is
+// noted, 4e-4 s fails them and the refusal recommends the ringing's step beside the modes' 1.54e-4
+// s.
+TEST(TimestepRule, TheRingingStepIsRecommendedNeverRefused) {
+  const double omega = kTwoPi * 205.6;  // rad/s
+  const std::vector<RuleMode> modes = {{.omega = omega, .name = "mode 4", .stepper = true}};
+  TimestepVerdict v = JudgeTimestep(modes, 1e-4, 0.2);
+  EXPECT_EQ(v.RingingNote("corexy.xml"), "");  // not judged: no STEP/DIR input
+  JudgeRinging(&v, omega);
+  EXPECT_EQ(v.ringing_timestep, 5.03e-5);
+  EXPECT_TRUE(v.failed.empty());
+  EXPECT_FALSE(v.refuse());
+  EXPECT_TRUE(v.ringing_exceeded());
+  EXPECT_THAT(v.RingingNote("corexy.xml"),
+              AllOf(HasSubstr("corexy.xml: after a move with STEP/DIR input, timestep 0.0001 s "
+                              "(ω·h = 0.129 on the fastest stepper mode, 205.6 Hz)"),
+                    HasSubstr("timestep <= 5.03e-05 s (ω·h <= 0.065)")));
+  EXPECT_EQ(v.Message("corexy.xml"), "");  // the modes pass: the note is RingingNote's alone
+  // At the recommended step itself, nothing to note.
+  TimestepVerdict at = JudgeTimestep(modes, 5.03e-5, 0.2);
+  JudgeRinging(&at, omega);
+  EXPECT_FALSE(at.ringing_exceeded());
+  EXPECT_EQ(at.RingingNote("corexy.xml"), "");
+  // A step the modes refuse: the message recommends both.
+  TimestepVerdict coarse = JudgeTimestep(modes, 4e-4, 0.2);
+  JudgeRinging(&coarse, omega);
+  EXPECT_TRUE(coarse.refuse());
+  EXPECT_THAT(coarse.Message("corexy.xml"),
+              AllOf(HasSubstr("use timestep <= 0.000154 s (passes every mode)"),
+                    HasSubstr("after a move with STEP/DIR input, timestep <= 5.03e-05 s keeps its "
+                              "ringing within 5 %")));
+  EXPECT_THAT(coarse.Summary("mjstepper"),
+              HasSubstr("use timestep <= 0.000154 s, <= 5.03e-05 s for a move's ringing"));
+}
+
 }  // namespace
 }  // namespace mjstepper

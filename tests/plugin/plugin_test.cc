@@ -540,6 +540,29 @@ TEST(StepperPlugin, CoarseTimestepWarnsAtLoad) {
   }
 }
 
+// Issue 30, item 4: with STEP/DIR input the load warning (given when the modes fail) recommends
+// the step a move's ringing needs too: 0.065/ωn with ωn = √(28.5/3.6e-5) = 889.8 rad/s (the
+// holding stiffness, as `info` lists the mode), 7.3e-5 s; with velocity input it does not.
+TEST(StepperPlugin, CoarseTimestepWarningGivesTheRingingStepWithStepInput) {
+  for (const char* input : {"steps", "velocity"}) {
+    CapturedWarnings warnings;
+    std::string error;
+    const ModelPtr m = LoadModel(
+        RotorModel(TsuiActuator("m1", "j1", Config("input", input) + Config("microsteps", "16")),
+                   "", "", 1, 1e-3),
+        &error);
+    ASSERT_TRUE(m) << error;
+    ASSERT_FALSE(warnings.ours().empty()) << input;
+    const std::string ringing = "<= 7.3e-05 s for a move's ringing with STEP/DIR input";
+    if (std::string(input) == "steps") {
+      EXPECT_THAT(warnings.ours()[0],
+                  AllOf(HasSubstr("use timestep <= 0.000213 s"), HasSubstr(ringing)));
+    } else {
+      EXPECT_THAT(warnings.ours()[0], Not(HasSubstr(ringing)));
+    }
+  }
+}
+
 // Issue 16: a detent of 1e12 N·m (harmonic 4) holds the rotor far more stiffly than the drive does,
 // and loaded without a word while MuJoCo then reset every step. The timestep check now adds the
 // detent's worst-case stiffness Σh h·Nr·Kdh = 4·50·1e12 N·m/rad to T' = 28.5 N·m/rad: at J =

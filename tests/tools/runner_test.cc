@@ -939,6 +939,42 @@ TEST(Info, NotesTheStepARingingAfterAMoveNeeds) {
   EXPECT_THAT(r.output, Not(HasSubstr("ringing after a move")));
 }
 
+// Issue 30, items 4 and 6: run, size, sweep, map and pullout (ApplyTimestepRule) recommend it too,
+// as a note on a step the modes pass (the CoreXY at 1e-4 s: ω·h 0.129 <= 0.2) and beside the
+// modes' own step in a refusal (4e-4 s); the model's own 5e-5 s and velocity input get no note.
+TEST(Runner, RecommendsTheStepARingingAfterAMoveNeeds) {
+  std::ifstream file(MJSTEPPER_SOURCE_DIR "/models/corexy.xml");
+  std::stringstream text;
+  text << file.rdbuf();
+  auto at = [&](const std::string& step) {
+    std::string xml = text.str();
+    const size_t begin = xml.find(R"(timestep=")");
+    xml.replace(begin, xml.find('"', begin + 10) + 1 - begin, R"(timestep=")" + step + R"(")");
+    const auto path = TempDir() / fmt::format("corexy_{}.xml", step);
+    std::ofstream(path) << xml;
+    return path;
+  };
+  const auto fine = at("1e-4"), coarse = at("4e-4");
+  const std::string note = "after a move with STEP/DIR input, timestep 0.0001 s (ω·h = 0.129";
+  Result r = RunCli("run " + fine.string() + " --duration 0.001 --quiet");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, AllOf(HasSubstr("note: " + fine.string() + ": " + note),
+                              HasSubstr("timestep <= 5.03e-05 s (ω·h <= 0.065)")));
+  EXPECT_EQ(r.output.find(note), r.output.rfind(note)) << "once";
+  r = RunCli("sweep " + fine.string() + " --actuator stepper_a --speeds 10rpm --quiet --out " +
+             (TempDir() / "ringing_sweep").string());
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr(note));
+  r = RunCli("run " + coarse.string() + " --duration 0.001 --quiet");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, AllOf(HasSubstr("use timestep <= 0.000154 s (passes every mode)"),
+                              HasSubstr("after a move with STEP/DIR input, timestep <= 5.03e-05 s "
+                                        "keeps its ringing within 5 %")));
+  r = RunCli("run " MJSTEPPER_SOURCE_DIR "/models/corexy.xml --duration 0.001 --quiet");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, Not(HasSubstr("after a move with STEP/DIR input")));
+}
+
 TEST(Map, WritesCsvAndHeatMapAndNamesBadParameters) {
   const std::string coupling = MJSTEPPER_SOURCE_DIR "/models/tsui_coupling.xml";
   const auto prefix = TempDir() / "map";
