@@ -6,7 +6,7 @@
 namespace mjstepper {
 namespace {
 
-double Sign(double v) { return (v > 0) - (v < 0); }
+double SignOf(double v) { return (v > 0) - (v < 0); }
 
 // Moves (p, v, a) along one segment for τ seconds.
 void Along(const MotionProfile::Segment& g, double tau, double* p, double* v, double* a) {
@@ -55,7 +55,7 @@ double MotionProfile::NextBreak(const State& s, double t) const {
 }
 
 std::array<MotionProfile::Segment, 7> MotionProfile::PlanSCurve(double distance) const {
-  const double D = std::abs(distance), s = Sign(distance);
+  const double D = std::abs(distance), s = SignOf(distance);
   const double A = max_accel, J = max_jerk;
   // Peak speed: V if the ramps fit, else the largest whose accel + decel cover D.
   auto ramp_distance = [&](double v) {  // accel phase 0 → v, times 2 (accel + decel)
@@ -95,12 +95,13 @@ void MotionProfile::Update(State* s, double t0, double t1, double target) const 
     double p = now.theta, v = now.omega;
     int n = 0;
     const double stop_distance = v * std::abs(v) / (2 * A);  // signed
-    if (v != 0 && (Sign(v) != Sign(target - p) || std::abs(stop_distance) > std::abs(target - p))) {
-      plan.segments[n++] = {std::abs(v) / A, -Sign(v) * A, 0};  // stop first
+    if (v != 0 &&
+        (SignOf(v) != SignOf(target - p) || std::abs(stop_distance) > std::abs(target - p))) {
+      plan.segments[n++] = {std::abs(v) / A, -SignOf(v) * A, 0};  // stop first
       p += stop_distance;
       v = 0;
     }
-    const double d = target - p, sd = Sign(d), D = std::abs(d), u0 = std::abs(v);
+    const double d = target - p, sd = SignOf(d), D = std::abs(d), u0 = std::abs(v);
     const double u_peak = std::sqrt(A * D + u0 * u0 / 2);
     if (u_peak <= V) {
       plan.segments[n++] = {(u_peak - u0) / A, sd * A, 0};
@@ -108,7 +109,7 @@ void MotionProfile::Update(State* s, double t0, double t1, double target) const 
     } else {
       const double t_first = std::abs(V - u0) / A;
       const double first_distance = (u0 + V) / 2 * t_first;
-      plan.segments[n++] = {t_first, sd * A * Sign(V - u0), 0};
+      plan.segments[n++] = {t_first, sd * A * SignOf(V - u0), 0};
       plan.segments[n++] = {(D - first_distance - V * V / (2 * A)) / V, 0, 0};
       plan.segments[n++] = {V / A, -sd * A, 0};
     }

@@ -29,7 +29,7 @@
 namespace mjstepper::tools {
 namespace {
 
-int StepperSlot() {
+int StepperPluginSlot() {
   int slot = -1;
   mjp_getPlugin(plugin::kPluginName, &slot);
   return slot;
@@ -37,7 +37,7 @@ int StepperSlot() {
 
 bool IsStepper(const mjModel* m, int actuator) {
   const int instance = m->actuator_plugin[actuator];
-  return instance >= 0 && m->plugin[instance] == StepperSlot();
+  return instance >= 0 && m->plugin[instance] == StepperPluginSlot();
 }
 
 // MuJoCo's compile error, each line once: the compiler may initialise the plugin more than once
@@ -100,11 +100,11 @@ void LoadPluginLibrary() {
   static const bool loaded = [] {
     mju_user_warning = WarnOnce;
     // Loaded once per process: the Python package has loaded it already at import.
-    if (StepperSlot() < 0) mj_loadPluginLibrary(PluginPath().c_str());
+    if (StepperPluginSlot() < 0) mj_loadPluginLibrary(PluginPath().c_str());
     return true;
   }();
   (void)loaded;
-  if (StepperSlot() < 0) {
+  if (StepperPluginSlot() < 0) {
     throw std::runtime_error(fmt::format("plugin {} not registered after loading {}",
                                          plugin::kPluginName, PluginPath()));
   }
@@ -138,7 +138,7 @@ StepperModel LoadStepperModel(const std::string& path, const std::vector<ConfigO
   std::vector<int> probe_of(model->nactuator, -1);
   for (int s = 0; s < model->nsensor; ++s) {
     const int instance = model->sensor_plugin[s];
-    if (instance >= 0 && model->plugin[instance] == StepperSlot() &&
+    if (instance >= 0 && model->plugin[instance] == StepperPluginSlot() &&
         model->sensor_objtype[s] == mjOBJ_ACTUATOR) {
       probe_of[model->sensor_objid[s]] = s;
     }
@@ -171,7 +171,7 @@ StepperModel LoadStepperModel(const std::string& path, const std::vector<ConfigO
   StepperModel out;
   for (int s = 0; s < model->nsensor; ++s) {
     const int instance = model->sensor_plugin[s];
-    if (instance < 0 || model->plugin[instance] != StepperSlot()) continue;
+    if (instance < 0 || model->plugin[instance] != StepperPluginSlot()) continue;
     const int a = model->sensor_objid[s];
     const int drive_instance = model->actuator_plugin[a];
     auto read = [&](const char* key) {

@@ -113,8 +113,8 @@ class WheelInAFreshEnvironment(unittest.TestCase):
         needed = [line.split("[")[1].rstrip("]") for line in dynamic.splitlines()
                   if "(NEEDED)" in line]
         self.assertIn(f"libmujoco.so.{mujoco.__version__}", needed)
-        runtimes = ("libmujoco", "libstdc++", "libm.", "libgcc_s", "libc.", "ld-linux")
-        for library in needed:  # C and C++ runtimes, and MuJoCo: no Debian library (libfmt)
+        runtimes = ("libmujoco", "libfmt", "libstdc++", "libm.", "libgcc_s", "libc.", "ld-linux")
+        for library in needed:  # C and C++ runtimes, MuJoCo and Debian's fmt: nothing else
             self.assertTrue(library.startswith(runtimes), library)
         # The engine (the command and the experiments) needs Debian's tinyxml2 and libpng besides
         # (README, "The Python package"), and loads OSMesa only to render.
@@ -703,4 +703,4 @@ class DocsPython(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    unittest.main(argv=sys.argv[:1], verbosity=2)
+    unittest.main(argv=sys.argv[:1] + sys.argv[3:], verbosity=2)  # optionally test classes
